@@ -1,0 +1,61 @@
+#include "broadphase/broad_phase.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/errors.hpp"
+
+namespace polydem::broadphase {
+
+std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& box, double skin) {
+  if (!(std::isfinite(skin) && skin >= 0.0)) {
+    throw ConfigError(fmt::format("skin must be a finite number >= 0, got {}", skin));
+  }
+  if (spheres.centre.cols() != spheres.radius.size()) {
+    throw ConfigError(fmt::format("{} centres but {} radii", spheres.centre.cols(), spheres.radius.size()));
+  }
+  const Index n = spheres.count();
+  double rmin = n > 0 ? spheres.radius[0] : 0.0;
+  double rmax = rmin;
+  for (Index i = 0; i < n; ++i) {
+    const double r = spheres.radius[i];
+    if (!(std::isfinite(r) && r > 0.0)) {
+      throw ConfigError(fmt::format("particle {}: radius must be positive and finite, got {}", i, r));
+    }
+    const Eigen::Vector3d x = spheres.centre.col(i);
+    if (!x.allFinite()) {
+      throw ConfigError(fmt::format("particle {}: non-finite centre ({}, {}, {})", i, x[0], x[1], x[2]));
+    }
+    if (!box.contains(x)) {
+      throw ConfigError(fmt::format("particle {}: centre ({}, {}, {}) outside the box {} (wrap periodic "
+                                    "coordinates into [0, L))",
+                                    i, x[0], x[1], x[2], box.describe()));
+    }
+    rmin = std::min(rmin, r);
+    rmax = std::max(rmax, r);
+  }
+  const double cutoff = 2.0 * rmax + skin;
+  for (int k = 0; k < 3; ++k) {
+    if (box.periodic(k) && n > 0 && box.length(k) < 2.0 * cutoff) {
+      throw ConfigError(fmt::format("box length {} along {} is below 2 * max cutoff ({} = 2 r_max + skin): "
+                                    "enlarge the box or make {} non-periodic",
+                                    box.length(k), "xyz"[k], cutoff, "xyz"[k]));
+    }
+  }
+  return {rmin, rmax};
+}
+
+void BroadPhase::build(const SphereView& spheres, const Box& box, double skin) {
+  const auto [rmin, rmax] = validateSpheres(spheres, box, skin);
+  box_ = box;
+  skin_ = skin;
+  minRadius_ = rmin;
+  maxRadius_ = rmax;
+  doBuild(spheres);
+}
+
+void sortPairs(std::vector<Pair>& pairs) { std::sort(pairs.begin(), pairs.end()); }
+
+}  // namespace polydem::broadphase

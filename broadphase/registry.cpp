@@ -1,0 +1,56 @@
+#include "broadphase/registry.hpp"
+
+#include <fmt/format.h>
+
+#include "broadphase/auto_select.hpp"
+#include "broadphase/brute_force.hpp"
+#include "broadphase/linked_cell.hpp"
+#include "core/errors.hpp"
+#include "polydem/config.hpp"
+
+namespace polydem::broadphase {
+namespace {
+
+template <class T>
+std::unique_ptr<BroadPhase> make() {
+  return std::make_unique<T>();
+}
+
+struct Entry {
+  std::string_view name;
+  std::unique_ptr<BroadPhase> (*create)();
+};
+
+// No self-registering statics: static libraries drop them.
+constexpr Entry kBackends[] = {
+    {"brute", &make<BruteForce>},
+    {"linked-cell", &make<LinkedCell>},
+};
+
+// Names reserved for backends of later milestones, so the error can say why they are missing.
+constexpr std::string_view kPlanned[] = {"hgrid-td", "hgrid-bu", "delaunay", "sap", "cgal-box"};
+
+}  // namespace
+
+std::vector<std::string> backendNames() {
+  std::vector<std::string> names;
+  for (const Entry& e : kBackends) names.emplace_back(e.name);
+  return names;
+}
+
+std::unique_ptr<BroadPhase> makeBroadPhase(std::string_view name) {
+  if (name == "auto") return std::make_unique<AutoSelect>();
+  for (const Entry& e : kBackends) {
+    if (e.name == name) return e.create();
+  }
+  std::string valid = "auto";
+  for (const Entry& e : kBackends) valid += fmt::format(", {}", e.name);
+  for (std::string_view planned : kPlanned) {
+    if (planned == name) {
+      throw ConfigError(fmt::format("broad phase '{}' is not available in this build; available: {}", name, valid));
+    }
+  }
+  throw ConfigError(fmt::format("unknown broad phase '{}'; valid names: {}", name, valid));
+}
+
+}  // namespace polydem::broadphase
