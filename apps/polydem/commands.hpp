@@ -1,0 +1,15 @@
+#pragma once
+// Subcommands of the polydem program. Each registers itself on the CLI11 app and returns a runner.
+#include <functional>
+
+#include <CLI/CLI.hpp>
+
+namespace polydem::app {
+
+using Runner = std::function<int()>;
+
+Runner addGenerate(CLI::App& app);
+Runner addPairs(CLI::App& app);
+Runner addExample(CLI::App& app);
+
+}  // namespace polydem::app

@@ -1,0 +1,36 @@
+#pragma once
+// Helpers shared by the subcommands: option groups, parsing of boundary names, timing.
+#include <array>
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "core/box.hpp"
+#include "core/size_distribution.hpp"
+
+namespace polydem::app {
+
+/// --dist, --rmin, --omega, --alpha, --sigma, --median, --large-fraction, --fraction-kind.
+void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& fractionKind);
+void finishDistributionSpec(DistributionSpec& spec, const std::string& fractionKind);
+
+/// "periodic", "walls", or three comma-separated entries of periodic|wall. Throws ConfigError.
+std::array<Boundary, 3> parseBoundaries(const std::string& text);
+
+/// Wall-clock seconds since construction.
+class Stopwatch {
+ public:
+  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+double median(std::vector<double> values);
+
+}  // namespace polydem::app

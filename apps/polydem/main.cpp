@@ -1,0 +1,48 @@
+// polydem: command-line front end. `polydem --help` lists the subcommands.
+#include <cstdio>
+#include <exception>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "apps/polydem/commands.hpp"
+#include "core/errors.hpp"
+#include "polydem/config.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"polydem " POLYDEM_VERSION ": simulation and packing of polydisperse spheres"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", POLYDEM_VERSION);
+  std::map<CLI::App*, polydem::app::Runner> runners;
+  auto add = [&](polydem::app::Runner (*registerFn)(CLI::App&)) {
+    const std::size_t before = app.get_subcommands({}).size();
+    polydem::app::Runner run = registerFn(app);
+    runners[app.get_subcommands({})[before]] = std::move(run);
+  };
+  add(&polydem::app::addGenerate);
+  add(&polydem::app::addPairs);
+  add(&polydem::app::addExample);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (auto& [sub, run] : runners) {
+      if (sub->parsed()) return run();
+    }
+  } catch (const polydem::ConfigError& e) {
+    fmt::print(stderr, "polydem: configuration error: {}\n", e.what());
+    return 2;
+  } catch (const polydem::InputError& e) {
+    fmt::print(stderr, "polydem: input error: {}\n", e.what());
+    return 2;
+  } catch (const polydem::SimulationError& e) {
+    fmt::print(stderr, "polydem: simulation error: {}\n", e.what());
+    return 3;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "polydem: error: {}\n", e.what());
+    return 1;
+  }
+  return 0;
+}

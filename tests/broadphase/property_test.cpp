@@ -1,0 +1,268 @@
+// The property suite every broad-phase backend runs through: identical pair sets to brute force on
+// random and adversarial inputs. A new backend joins by being listed in broadphase/registry.cpp.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "broadphase/brute_force.hpp"
+#include "broadphase/registry.hpp"
+#include "core/errors.hpp"
+#include "tests/support/scene.hpp"
+
+namespace polydem {
+namespace {
+
+using broadphase::Pair;
+
+std::vector<std::string> allBackends() {
+  std::vector<std::string> names = broadphase::backendNames();
+  names.push_back("auto");
+  return names;
+}
+
+std::vector<Pair> run(std::string_view backend, const test::Scene& s, double skin) {
+  return test::pairsFrom(backend, s, skin);
+}
+
+struct RandomCase {
+  std::string distribution;
+  double sizeRatio;
+  double packing;
+  bool periodic;
+  Index count;
+};
+
+std::vector<RandomCase> randomCases() {
+  return {
+      {"mono", 1.0, 0.55, true, 2000},          {"mono", 1.0, 0.05, false, 2000},
+      {"mono", 1.0, 0.30, false, 1500},         {"bi", 10.0, 0.40, true, 2000},
+      {"bi", 10.0, 0.40, false, 2000},          {"uniform-radius", 50.0, 0.3, true, 2000},
+      {"uniform-volume", 10.0, 0.50, true, 3000}, {"uniform-volume", 100.0, 0.30, true, 3000},
+      {"uniform-volume", 100.0, 0.30, false, 3000}, {"uniform-volume", 1000.0, 0.20, false, 3000},
+      {"uniform-volume", 1000.0, 0.05, true, 2000}, {"power-law", 30.0, 0.35, true, 2000},
+      {"log-normal", 20.0, 0.30, true, 2000},
+  };
+}
+
+class BackendProperty : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(BackendProperty, RandomScenesMatchBruteForce) {
+  const std::string backend = GetParam();
+  for (const RandomCase& c : randomCases()) {
+    for (std::uint64_t seed : {1u, 2u}) {
+      const test::Scene scene = test::makeScene(
+          {.count = c.count, .distribution = c.distribution, .sizeRatio = c.sizeRatio, .packing = c.packing,
+           .periodic = c.periodic, .seed = seed});
+      for (double skinFactor : {0.0, 0.3}) {
+        SCOPED_TRACE(::testing::Message() << c.distribution << " omega " << c.sizeRatio << " nu " << c.packing
+                                          << (c.periodic ? " periodic" : " walled") << " seed " << seed << " skin "
+                                          << skinFactor);
+        const double skin = skinFactor * scene.minRadius();
+        const auto expected = run("brute", scene, skin);
+        if (c.packing > 0.1) {
+          ASSERT_GT(expected.size(), 0u) << "scene should have contacts";
+        }
+        EXPECT_EQ(run(backend, scene, skin), expected);
+      }
+    }
+  }
+}
+
+TEST_P(BackendProperty, EmptySingleAndTwoParticles) {
+  const std::string backend = GetParam();
+  for (bool periodic : {true, false}) {
+    test::Scene s;
+    s.box = Box::cubic(10.0, periodic ? Boundary::Periodic : Boundary::Wall);
+    s.centre.resize(3, 0);
+    s.radius.resize(0);
+    EXPECT_TRUE(run(backend, s, 0.1).empty());
+
+    s.centre = Eigen::Matrix3Xd::Constant(3, 1, 5.0);
+    s.radius = Eigen::VectorXd::Constant(1, 1.0);
+    EXPECT_TRUE(run(backend, s, 0.1).empty());
+
+    s.centre.resize(3, 2);
+    s.centre.col(0) << 1.0, 1.0, 1.0;
+    s.centre.col(1) << 2.5, 1.0, 1.0;
+    s.radius = Eigen::VectorXd::Constant(2, 0.75);  // touching exactly: gap 0
+    EXPECT_EQ(run(backend, s, 0.0), (std::vector<Pair>{{0, 1}}));
+    s.radius = Eigen::VectorXd::Constant(2, 0.5);  // gap 0.5 > skin
+    EXPECT_TRUE(run(backend, s, 0.25).empty());
+    EXPECT_EQ(run(backend, s, 0.5), (std::vector<Pair>{{0, 1}}));  // gap == skin counts
+  }
+}
+
+TEST_P(BackendProperty, CoincidentCentresAndAllInOneCell) {
+  const std::string backend = GetParam();
+  test::Scene s;
+  s.box = Box::cubic(40.0, Boundary::Periodic);
+  const Index n = 300;
+  s.centre.resize(3, n);
+  s.radius.resize(n);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(20.0, 21.0);
+  for (Index i = 0; i < n; ++i) {
+    s.radius[i] = i % 3 == 0 ? 0.01 : 0.4;
+    for (int k = 0; k < 3; ++k) s.centre(k, i) = i < 10 ? 20.5 : u(rng);  // ten coincident centres
+  }
+  EXPECT_EQ(run(backend, s, 0.0), run("brute", s, 0.0));
+  EXPECT_EQ(run(backend, s, 0.05), run("brute", s, 0.05));
+}
+
+// Spheres on a lattice whose spacing equals the contact distance, so centres sit exactly on cell
+// faces of any grid whose cell edge divides the spacing, and many gaps are exactly 0 or exactly the skin.
+TEST_P(BackendProperty, LatticeOnCellFacesWithExactTouching) {
+  const std::string backend = GetParam();
+  for (bool periodic : {true, false}) {
+    for (double spacing : {1.0, 2.0, 0.5}) {
+      test::Scene s;
+      const int m = 8;
+      s.box = Box::cubic(m * spacing, periodic ? Boundary::Periodic : Boundary::Wall);
+      s.centre.resize(3, m * m * m);
+      s.radius.resize(m * m * m);
+      Index n = 0;
+      for (int z = 0; z < m; ++z)
+        for (int y = 0; y < m; ++y)
+          for (int x = 0; x < m; ++x) {
+            s.centre.col(n) << x * spacing, y * spacing, z * spacing;
+            s.radius[n] = ((x + y + z) % 4 == 0) ? 0.25 * spacing : 0.5 * spacing;
+            ++n;
+          }
+      for (double skin : {0.0, 0.25 * spacing, 0.5 * spacing}) {
+        SCOPED_TRACE(::testing::Message() << "spacing " << spacing << " skin " << skin << " periodic " << periodic);
+        const auto expected = run("brute", s, skin);
+        ASSERT_GT(expected.size(), 0u);
+        EXPECT_EQ(run(backend, s, skin), expected);
+      }
+    }
+  }
+}
+
+TEST_P(BackendProperty, PeriodicImagesAcrossEveryFace) {
+  const std::string backend = GetParam();
+  test::Scene s;
+  s.box = Box(Eigen::Vector3d(10.0, 12.0, 9.0), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic});
+  s.centre.resize(3, 8);
+  s.radius = Eigen::VectorXd::Constant(8, 0.5);
+  // Corner particles: each touches the others only through periodic images.
+  Index n = 0;
+  for (int c = 0; c < 8; ++c) {
+    s.centre.col(n++) << ((c & 1) ? 9.8 : 0.2), ((c & 2) ? 11.8 : 0.2), ((c & 4) ? 8.8 : 0.2);
+  }
+  const auto expected = run("brute", s, 0.0);
+  EXPECT_EQ(expected.size(), 28u);  // all 8 corners are mutually within reach through images
+  EXPECT_EQ(run(backend, s, 0.0), expected);
+}
+
+TEST_P(BackendProperty, MixedBoundariesAndThinBoxes) {
+  const std::string backend = GetParam();
+  // Boxes with one or two cells per axis on some axes (few cells than the stencil).
+  for (const Eigen::Vector3d lengths : {Eigen::Vector3d(4.5, 30.0, 30.0), Eigen::Vector3d(5.0, 5.0, 40.0),
+                                        Eigen::Vector3d(2.0, 2.0, 2.0)}) {
+    for (const auto boundaries : {std::array{Boundary::Periodic, Boundary::Wall, Boundary::Periodic},
+                                  std::array{Boundary::Wall, Boundary::Wall, Boundary::Wall}}) {
+      if (lengths.minCoeff() < 4.4 && boundaries[0] == Boundary::Periodic) continue;
+      test::Scene s;
+      s.box = Box(lengths, boundaries);
+      const Index n = 400;
+      s.centre.resize(3, n);
+      s.radius.resize(n);
+      std::mt19937_64 rng(11);
+      for (Index i = 0; i < n; ++i) {
+        s.radius[i] = (i % 7 == 0) ? 1.0 : 0.2;
+        for (int k = 0; k < 3; ++k) {
+          s.centre(k, i) = std::uniform_real_distribution<double>(0.0, lengths[k])(rng);
+        }
+      }
+      SCOPED_TRACE(::testing::Message() << "box " << s.box.describe());
+      EXPECT_EQ(run(backend, s, 0.1), run("brute", s, 0.1));
+    }
+  }
+}
+
+TEST_P(BackendProperty, NeighbourQueriesMatchBruteForce) {
+  const std::string backend = GetParam();
+  const test::Scene scene =
+      test::makeScene({.count = 1500, .distribution = "uniform-volume", .sizeRatio = 20.0, .packing = 0.3, .seed = 3});
+  const double skin = 0.5 * scene.minRadius();
+  auto bp = broadphase::makeBroadPhase(backend);
+  broadphase::BruteForce brute;
+  bp->build(scene.spheres(), scene.box, skin);
+  brute.build(scene.spheres(), scene.box, skin);
+  std::vector<Index> got, expected;
+  for (Index i = 0; i < scene.spheres().count(); i += 7) {
+    for (double reach : {0.0, 0.5 * skin, skin}) {
+      bp->findNeighbours(scene.spheres(), i, reach, got);
+      brute.findNeighbours(scene.spheres(), i, reach, expected);
+      ASSERT_EQ(got, expected) << "particle " << i << " reach " << reach;
+    }
+  }
+}
+
+TEST_P(BackendProperty, UpdateAfterSmallMovesMatchesRebuild) {
+  const std::string backend = GetParam();
+  test::Scene scene =
+      test::makeScene({.count = 1500, .distribution = "bi", .sizeRatio = 5.0, .packing = 0.3, .seed = 4});
+  const double skin = 0.2;
+  auto bp = broadphase::makeBroadPhase(backend);
+  bp->build(scene.spheres(), scene.box, skin);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> step(-0.3, 0.3);
+  std::vector<Pair> got;
+  for (int round = 0; round < 5; ++round) {
+    std::vector<Index> moved;
+    for (Index i = round; i < scene.spheres().count(); i += 5) {
+      for (int k = 0; k < 3; ++k) scene.centre(k, i) += step(rng);
+      scene.centre.col(i) = scene.box.wrap(scene.centre.col(i));
+      moved.push_back(i);
+    }
+    bp->update(scene.spheres(), moved);
+    bp->findPairs(scene.spheres(), got);
+    broadphase::sortPairs(got);
+    EXPECT_EQ(got, run("brute", scene, skin)) << "round " << round;
+  }
+}
+
+TEST_P(BackendProperty, RejectsBadInput) {
+  const std::string backend = GetParam();
+  auto bp = broadphase::makeBroadPhase(backend);
+  test::Scene s;
+  s.box = Box::cubic(10.0, Boundary::Periodic);
+  s.centre = Eigen::Matrix3Xd::Constant(3, 2, 5.0);
+  s.radius = Eigen::VectorXd::Constant(2, 1.0);
+  s.radius[1] = -1.0;
+  EXPECT_THROW(bp->build(s.spheres(), s.box, 0.0), ConfigError);
+  s.radius[1] = 1.0;
+  s.centre(1, 1) = std::nan("");
+  EXPECT_THROW(bp->build(s.spheres(), s.box, 0.0), ConfigError);
+  s.centre(1, 1) = 11.0;  // outside
+  EXPECT_THROW(bp->build(s.spheres(), s.box, 0.0), ConfigError);
+  s.centre(1, 1) = 5.0;
+  s.radius[1] = 2.6;  // 2 r_max = 5.2 > L / 2 on a periodic axis
+  EXPECT_THROW(bp->build(s.spheres(), s.box, 0.0), ConfigError);
+  s.radius[1] = 1.0;
+  EXPECT_THROW(bp->build(s.spheres(), s.box, -0.1), ConfigError);
+  EXPECT_NO_THROW(bp->build(s.spheres(), s.box, 0.1));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllBackends, BackendProperty, ::testing::ValuesIn(allBackends()),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           std::string name = info.param;
+                           for (char& ch : name) {
+                             if (ch == '-') ch = '_';
+                           }
+                           return name;
+                         });
+
+TEST(Registry, UnknownNameListsValidOnes) {
+  try {
+    broadphase::makeBroadPhase("octree");
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("linked-cell"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace polydem
