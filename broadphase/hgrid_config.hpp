@@ -1,0 +1,24 @@
+#pragma once
+// Parameters of the hierarchical grid, shared by the HGrid backend and its cost-model optimiser.
+// Seed 000 ch. 2.1-2.2 (digest: shared/spec/hgrid-and-polydispersity.md §1-§2).
+#include <string>
+#include <vector>
+
+namespace polydem::broadphase {
+
+/// Which levels a particle searches besides its own (seed 000 ch. 2.2.2).
+enum class CrossLevel {
+  TopDown,  ///< a particle searches the finer levels j < h (pairs found from the larger member)
+  BottomUp  ///< a particle searches the coarser levels j > h (pairs found from the smaller member)
+};
+
+struct HGridConfig {
+  /// Nominal cell edges s_1 < ... < s_L (m). A particle of interaction diameter 2 r + skin goes to the
+  /// first level with s_h >= 2 r + skin; the last edge must hold the largest particle.
+  std::vector<double> cellSizes;
+  CrossLevel mode = CrossLevel::TopDown;
+  /// Where the configuration came from (e.g. "optimiser: predicted T/N = 11.6, runner-up ...").
+  std::string origin;
+};
+
+}  // namespace polydem::broadphase
