@@ -26,7 +26,7 @@ class SimulationError : public std::runtime_error {
 
 }  // namespace polydem
 
-#if POLYDEM_ENABLE_ASSERTS
+#if defined(POLYDEM_ENABLE_ASSERTS) && POLYDEM_ENABLE_ASSERTS
 #define POLYDEM_ASSERT(cond, message)                                                   \
   do {                                                                                  \
     if (!(cond)) ::polydem::assertionFailed(#cond, message, __FILE__, __LINE__);        \

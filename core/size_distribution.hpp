@@ -59,12 +59,24 @@ class SizeDistribution {
   double moment(int k) const;
 
   /// N radii. Systematic sampling uses one uniform offset drawn from `seed`; Random uses N.
+  /// Uniforms come from std::mt19937_64(seed), u = (draw >> 11) / 2^53 in [0, 1): Systematic takes the first
+  /// as u and returns r_i = quantile((i + u) / N) in ascending order (bi and mono: exactly round(N n_k) of
+  /// each radius); Random returns quantile(u_i) in draw order. Unbounded families still give finite radii.
   std::vector<double> sample(Index count, Sampling sampling, std::uint64_t seed) const;
+
+ protected:
+  /// Systematic sample r_i = quantile((i + u) / N), i = 0..N-1 (ascending). Discrete families override
+  /// it so that every species gets exactly round(N n_k) particles whatever u is.
+  virtual void sampleSystematic(Index count, double u, std::vector<double>& out) const;
 };
 
 /// Build a distribution; throws ConfigError naming the bad field (rmin <= 0, omega < 1, sigma <= 0,
 /// fraction outside [0, 1], unknown kind listing the valid ones).
 std::unique_ptr<SizeDistribution> makeDistribution(const DistributionSpec& spec);
+
+/// Inverse of the standard normal CDF, Phi^-1(p) for p in (0, 1); -inf at 0, +inf at 1. Accurate to a
+/// few ulp, also deep in the lower tail (pass the smaller of p and 1 - p when it matters).
+double standardNormalQuantile(double p);
 
 /// Raw moments <r^k>, k = 0..5, of a sample.
 std::array<double, 6> sampleMoments(std::span<const double> radii);

@@ -158,7 +158,7 @@ TEST_P(BackendProperty, PeriodicImagesAcrossEveryFace) {
 TEST_P(BackendProperty, MixedBoundariesAndThinBoxes) {
   const std::string backend = GetParam();
   // Boxes with one or two cells per axis on some axes (few cells than the stencil).
-  for (const Eigen::Vector3d lengths : {Eigen::Vector3d(4.5, 30.0, 30.0), Eigen::Vector3d(5.0, 5.0, 40.0),
+  for (const Eigen::Vector3d& lengths : {Eigen::Vector3d(4.5, 30.0, 30.0), Eigen::Vector3d(5.0, 5.0, 40.0),
                                         Eigen::Vector3d(2.0, 2.0, 2.0)}) {
     for (const auto boundaries : {std::array{Boundary::Periodic, Boundary::Wall, Boundary::Periodic},
                                   std::array{Boundary::Wall, Boundary::Wall, Boundary::Wall}}) {
