@@ -1,0 +1,624 @@
+// HDF5 snapshots and their XDMF sidecars, see hdf5_snapshot.hpp for the layout.
+//
+// Uses the HDF5 C API (1.10+) behind small RAII handles rather than the C++ API: the C++ API reports
+// errors by exceptions whose messages name neither file nor dataset, and it is not always packaged.
+// Every failure becomes an InputError "FILE: dataset PATH: problem", with HDF5's innermost error
+// description appended when HDF5 itself failed.
+#include "core/io/hdf5_snapshot.hpp"
+
+#include "polydem/config.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>  // fmt::join
+
+#include "core/errors.hpp"
+
+#if POLYDEM_WITH_HDF5
+#include <hdf5.h>
+#endif
+
+namespace polydem::io {
+
+std::filesystem::path xdmfPath(const std::filesystem::path& file) {
+  std::filesystem::path sidecar = file;
+  sidecar.replace_extension(".xmf");
+  return sidecar;
+}
+
+#if !POLYDEM_WITH_HDF5
+
+void writeSnapshot(const std::filesystem::path& file, const ParticleData&) {
+  throw ConfigError(fmt::format("{}: cannot write an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF; "
+                                "write a text file instead",
+                                file.string()));
+}
+
+ParticleData readSnapshot(const std::filesystem::path& file) {
+  throw ConfigError(fmt::format("{}: cannot read an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF",
+                                file.string()));
+}
+
+#else
+
+namespace {
+
+constexpr char kAxis[] = "xyz";
+
+/// Owns one hid_t and closes it with the matching H5?close.
+class Handle {
+ public:
+  using Closer = herr_t (*)(hid_t);
+  Handle() = default;
+  Handle(hid_t id, Closer close) : id_(id), close_(close) {}
+  Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, H5I_INVALID_HID)), close_(other.close_) {}
+  Handle& operator=(Handle&& other) noexcept {
+    if (this != &other) {
+      reset();
+      id_ = std::exchange(other.id_, H5I_INVALID_HID);
+      close_ = other.close_;
+    }
+    return *this;
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  ~Handle() { reset(); }
+
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+  /// Close now and report whether closing succeeded (closing a file flushes it).
+  bool close() {
+    const herr_t status = id_ >= 0 ? close_(id_) : 0;
+    id_ = H5I_INVALID_HID;
+    return status >= 0;
+  }
+  void reset() {
+    if (id_ >= 0) close_(id_);
+    id_ = H5I_INVALID_HID;
+  }
+
+ private:
+  hid_t id_ = H5I_INVALID_HID;
+  Closer close_ = nullptr;
+};
+
+/// Turns off HDF5's automatic error printing for its lifetime; we report errors as exceptions.
+class QuietErrors {
+ public:
+  QuietErrors() {
+    H5Eget_auto2(H5E_DEFAULT, &function_, &clientData_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  QuietErrors(const QuietErrors&) = delete;
+  QuietErrors& operator=(const QuietErrors&) = delete;
+  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, function_, clientData_); }
+
+ private:
+  H5E_auto2_t function_ = nullptr;
+  void* clientData_ = nullptr;
+};
+
+/// The innermost description on HDF5's error stack, as " (HDF5: ...)", or "" if the stack is empty.
+/// Clears the stack.
+std::string hdf5Detail() {
+  std::string detail;
+  H5Ewalk2(
+      H5E_DEFAULT, H5E_WALK_UPWARD,
+      [](unsigned n, const H5E_error2_t* error, void* out) -> herr_t {
+        if (n == 0 && error->desc != nullptr) *static_cast<std::string*>(out) = error->desc;
+        return 0;
+      },
+      &detail);
+  H5Eclear2(H5E_DEFAULT);
+  return detail.empty() ? std::string() : fmt::format(" (HDF5: {})", detail);
+}
+
+/// Error context: the file and, once known, the dataset or attribute being handled.
+class Context {
+ public:
+  explicit Context(const std::filesystem::path& file) : name_(file.string()) {}
+
+  [[noreturn]] void fail(std::string_view problem) const {
+    throw InputError(fmt::format("{}: {}", name_, problem));
+  }
+  [[noreturn]] void fail(std::string_view object, std::string_view problem) const {
+    throw InputError(fmt::format("{}: {}: {}", name_, object, problem));
+  }
+  /// fail() with HDF5's error description appended, for failed HDF5 calls.
+  [[noreturn]] void failHdf5(std::string_view object, std::string_view problem) const {
+    fail(object, fmt::format("{}{}", problem, hdf5Detail()));
+  }
+  const std::string& name() const { return name_; }
+
+ private:
+  std::string name_;
+};
+
+std::string datasetLabel(std::string_view path) { return fmt::format("dataset {}", path); }
+
+// ---------------------------------------------------------------------------------------------------
+// Writing
+
+Handle createGroup(const Context& ctx, hid_t file, const char* path) {
+  Handle group(H5Gcreate2(file, path, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) ctx.failHdf5(fmt::format("group {}", path), "cannot create");
+  return group;
+}
+
+void writeDataset(const Context& ctx, hid_t file, const char* path, hid_t fileType, hid_t memoryType,
+                  std::initializer_list<hsize_t> dims, const void* values) {
+  const std::string label = datasetLabel(path);
+  std::vector<hsize_t> shape(dims);
+  Handle space(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr), H5Sclose);
+  if (!space.valid()) ctx.failHdf5(label, "cannot create dataspace");
+  Handle dataset(H5Dcreate2(file, path, fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  if (!dataset.valid()) ctx.failHdf5(label, "cannot create");
+  hsize_t total = 1;
+  for (hsize_t d : shape) total *= d;
+  // An empty Eigen array has no buffer, and HDF5 refuses a null buffer even for zero elements.
+  if (total == 0) return;
+  if (H5Dwrite(dataset.get(), memoryType, H5S_ALL, H5S_ALL, H5P_DEFAULT, values) < 0) {
+    ctx.failHdf5(label, "cannot write");
+  }
+}
+
+void writeStringAttribute(const Context& ctx, hid_t location, const std::string& locationName,
+                          const std::string& key, const std::string& value) {
+  const std::string label = fmt::format("attribute {}/{}", locationName, key);
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
+  if (!type.valid() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
+    ctx.failHdf5(label, "cannot create string type");
+  }
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle attribute(H5Acreate2(location, key.c_str(), type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attribute.valid()) ctx.failHdf5(label, "cannot create");
+  const char* text = value.c_str();
+  if (H5Awrite(attribute.get(), type.get(), &text) < 0) ctx.failHdf5(label, "cannot write");
+}
+
+void writeDoubleAttribute(const Context& ctx, hid_t location, const char* key, double value) {
+  const std::string label = fmt::format("attribute /{}", key);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  Handle attribute(H5Acreate2(location, key, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!attribute.valid()) ctx.failHdf5(label, "cannot create");
+  if (H5Awrite(attribute.get(), H5T_NATIVE_DOUBLE, &value) < 0) ctx.failHdf5(label, "cannot write");
+}
+
+std::string xmlEscape(std::string_view text) {
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+void writeXdmf(const std::filesystem::path& file, const ParticleData& data) {
+  const std::filesystem::path sidecar = xdmfPath(file);
+  // Relative reference: the pair stays valid when the directory is moved or copied.
+  const std::string h5 = xmlEscape(file.filename().string());
+  const Index n = data.count();
+  const auto item = [&](std::string_view dims, std::string_view type, int precision, std::string_view path) {
+    return fmt::format(
+        "        <DataItem Dimensions=\"{}\" NumberType=\"{}\" Precision=\"{}\" Format=\"HDF\">{}:{}</DataItem>\n",
+        dims, type, precision, h5, path);
+  };
+  const std::string vector = fmt::format("{} 3", n);
+  const std::string scalar = fmt::format("{}", n);
+
+  std::string xml;
+  xml += "<?xml version=\"1.0\" ?>\n";
+  xml += "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n";
+  xml += "<Xdmf Version=\"3.0\">\n";
+  xml += "  <Domain>\n";
+  xml += "    <Grid Name=\"particles\" GridType=\"Uniform\">\n";
+  xml += fmt::format("      <Time Value=\"{:.17g}\"/>\n", data.time);
+  for (const auto& [key, value] : data.attributes) {
+    xml += fmt::format("      <Information Name=\"{}\" Value=\"{}\"/>\n", xmlEscape(key), xmlEscape(value));
+  }
+  xml += fmt::format("      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{}\" NodesPerElement=\"1\"/>\n", n);
+  xml += "      <Geometry GeometryType=\"XYZ\">\n";
+  xml += item(vector, "Float", 8, "/particles/position");
+  xml += "      </Geometry>\n";
+  xml += "      <Attribute Name=\"radius\" AttributeType=\"Scalar\" Center=\"Node\">\n";
+  xml += item(scalar, "Float", 8, "/particles/radius");
+  xml += "      </Attribute>\n";
+  xml += "      <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\">\n";
+  xml += item(scalar, "Int", 4, "/particles/id");
+  xml += "      </Attribute>\n";
+  if (data.velocity) {
+    xml += "      <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
+    xml += item(vector, "Float", 8, "/particles/velocity");
+    xml += "      </Attribute>\n";
+  }
+  xml += "    </Grid>\n";
+  xml += "  </Domain>\n";
+  xml += "</Xdmf>\n";
+
+  std::ofstream out(sidecar, std::ios::binary | std::ios::trunc);
+  if (!out) throw InputError(fmt::format("{}: cannot open for writing: {}", sidecar.string(), std::strerror(errno)));
+  out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
+  out.close();
+  if (!out) throw InputError(fmt::format("{}: write failed: {}", sidecar.string(), std::strerror(errno)));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Reading
+
+/// True if every component of `path` ("/a/b") exists; H5Lexists alone fails on a missing parent.
+bool linkExists(hid_t file, std::string_view path) {
+  std::size_t pos = 0;
+  while ((pos = path.find('/', pos + 1)) != std::string_view::npos) {
+    if (H5Lexists(file, std::string(path.substr(0, pos)).c_str(), H5P_DEFAULT) <= 0) return false;
+  }
+  return H5Lexists(file, std::string(path).c_str(), H5P_DEFAULT) > 0;
+}
+
+/// An open dataset with its shape, for checking before reading.
+struct Dataset {
+  Handle handle;
+  std::string label;
+  std::vector<hsize_t> shape;
+  H5T_class_t typeClass = H5T_NO_CLASS;
+};
+
+std::string shapeText(const std::vector<hsize_t>& shape) {
+  if (shape.empty()) return "a scalar";
+  return fmt::format("shape {}", fmt::join(shape, " x "));
+}
+
+std::string_view className(H5T_class_t c) {
+  switch (c) {
+    case H5T_INTEGER: return "integers";
+    case H5T_FLOAT: return "floating-point numbers";
+    case H5T_STRING: return "strings";
+    case H5T_COMPOUND: return "a compound type";
+    default: return "a non-numeric type";
+  }
+}
+
+Dataset openDataset(const Context& ctx, hid_t file, std::string_view path) {
+  Dataset d;
+  d.label = datasetLabel(path);
+  if (!linkExists(file, path)) ctx.fail(d.label, "missing");
+  d.handle = Handle(H5Dopen2(file, std::string(path).c_str(), H5P_DEFAULT), H5Dclose);
+  if (!d.handle.valid()) ctx.failHdf5(d.label, "cannot open (is it a dataset?)");
+  Handle space(H5Dget_space(d.handle.get()), H5Sclose);
+  const int rank = space.valid() ? H5Sget_simple_extent_ndims(space.get()) : -1;
+  if (rank < 0) ctx.failHdf5(d.label, "cannot read its shape");
+  d.shape.resize(static_cast<std::size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space.get(), d.shape.data(), nullptr) < 0) {
+    ctx.failHdf5(d.label, "cannot read its shape");
+  }
+  Handle type(H5Dget_type(d.handle.get()), H5Tclose);
+  if (!type.valid()) ctx.failHdf5(d.label, "cannot read its type");
+  d.typeClass = H5Tget_class(type.get());
+  return d;
+}
+
+void requireNumeric(const Context& ctx, const Dataset& d, bool integer) {
+  const bool ok = integer ? d.typeClass == H5T_INTEGER : (d.typeClass == H5T_FLOAT || d.typeClass == H5T_INTEGER);
+  if (!ok) {
+    ctx.fail(d.label, fmt::format("expected {}, got {}", integer ? "integers" : "numbers", className(d.typeClass)));
+  }
+}
+
+/// Require a 1-d dataset of `count` entries.
+void requireEntries(const Context& ctx, const Dataset& d, hsize_t count) {
+  if (d.shape.size() != 1) {
+    ctx.fail(d.label, fmt::format("expected a 1-d array of {} entries, got {}", count, shapeText(d.shape)));
+  }
+  if (d.shape[0] != count) ctx.fail(d.label, fmt::format("expected {} entries, got {}", count, d.shape[0]));
+}
+
+/// Require an N x 3 dataset.
+void requireRows(const Context& ctx, const Dataset& d, hsize_t count) {
+  if (d.shape.size() != 2 || d.shape[1] != 3) {
+    ctx.fail(d.label, fmt::format("expected shape {} x 3, got {}", count, shapeText(d.shape)));
+  }
+  if (d.shape[0] != count) ctx.fail(d.label, fmt::format("expected {} rows of 3, got {}", count, d.shape[0]));
+}
+
+void readInto(const Context& ctx, const Dataset& d, hid_t memoryType, void* out) {
+  hsize_t total = 1;
+  for (hsize_t s : d.shape) total *= s;
+  if (total == 0) return;
+  if (H5Dread(d.handle.get(), memoryType, H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0) {
+    ctx.failHdf5(d.label, "cannot read");
+  }
+}
+
+Eigen::Matrix3Xd readRows(const Context& ctx, hid_t file, std::string_view path, hsize_t count) {
+  const Dataset d = openDataset(ctx, file, path);
+  requireNumeric(ctx, d, false);
+  requireRows(ctx, d, count);
+  // Row-major N x 3 in the file is exactly a column-major 3 x N matrix in memory.
+  Eigen::Matrix3Xd values(3, static_cast<Eigen::Index>(count));
+  readInto(ctx, d, H5T_NATIVE_DOUBLE, values.data());
+  return values;
+}
+
+Eigen::VectorXd readDoubles(const Context& ctx, hid_t file, std::string_view path, hsize_t count) {
+  const Dataset d = openDataset(ctx, file, path);
+  requireNumeric(ctx, d, false);
+  requireEntries(ctx, d, count);
+  Eigen::VectorXd values(static_cast<Eigen::Index>(count));
+  readInto(ctx, d, H5T_NATIVE_DOUBLE, values.data());
+  return values;
+}
+
+std::vector<long long> readIntegers(const Context& ctx, hid_t file, std::string_view path, hsize_t count) {
+  const Dataset d = openDataset(ctx, file, path);
+  requireNumeric(ctx, d, true);
+  requireEntries(ctx, d, count);
+  // Read wide whatever the stored width, then range-check: HDF5 would silently clip on narrowing.
+  std::vector<long long> values(static_cast<std::size_t>(count));
+  readInto(ctx, d, H5T_NATIVE_LLONG, values.data());
+  return values;
+}
+
+double readTime(const Context& ctx, hid_t file) {
+  const std::string label = "attribute /time";
+  const htri_t exists = H5Aexists(file, "time");
+  if (exists < 0) ctx.failHdf5(label, "cannot query");
+  if (exists == 0) return 0.0;
+  Handle attribute(H5Aopen(file, "time", H5P_DEFAULT), H5Aclose);
+  if (!attribute.valid()) ctx.failHdf5(label, "cannot open");
+  Handle type(H5Aget_type(attribute.get()), H5Tclose);
+  const H5T_class_t typeClass = H5Tget_class(type.get());
+  if (typeClass != H5T_FLOAT && typeClass != H5T_INTEGER) {
+    ctx.fail(label, fmt::format("expected a number, got {}", className(typeClass)));
+  }
+  Handle space(H5Aget_space(attribute.get()), H5Sclose);
+  const hssize_t points = H5Sget_simple_extent_npoints(space.get());
+  if (points != 1) ctx.fail(label, fmt::format("expected a single value, got {}", points));
+  double time = 0.0;
+  if (H5Aread(attribute.get(), H5T_NATIVE_DOUBLE, &time) < 0) ctx.failHdf5(label, "cannot read");
+  if (!std::isfinite(time)) ctx.fail(label, fmt::format("time must be finite, got {}", time));
+  return time;
+}
+
+std::string readStringAttribute(const Context& ctx, hid_t group, const std::string& key) {
+  const std::string label = fmt::format("attribute /parameters/{}", key);
+  Handle attribute(H5Aopen(group, key.c_str(), H5P_DEFAULT), H5Aclose);
+  if (!attribute.valid()) ctx.failHdf5(label, "cannot open");
+  Handle type(H5Aget_type(attribute.get()), H5Tclose);
+  if (!type.valid()) ctx.failHdf5(label, "cannot read its type");
+  const H5T_class_t typeClass = H5Tget_class(type.get());
+  if (typeClass != H5T_STRING) ctx.fail(label, fmt::format("expected a string, got {}", className(typeClass)));
+  Handle space(H5Aget_space(attribute.get()), H5Sclose);
+  const hssize_t points = H5Sget_simple_extent_npoints(space.get());
+  if (points != 1) ctx.fail(label, fmt::format("expected a single string, got {}", points));
+
+  Handle memoryType(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_cset(memoryType.get(), H5Tget_cset(type.get()));  // HDF5 does not convert between character sets
+  if (H5Tis_variable_str(type.get()) > 0) {
+    H5Tset_size(memoryType.get(), H5T_VARIABLE);
+    char* text = nullptr;
+    if (H5Aread(attribute.get(), memoryType.get(), &text) < 0) ctx.failHdf5(label, "cannot read");
+    std::string value = text != nullptr ? text : "";
+    H5free_memory(text);
+    return value;
+  }
+  const std::size_t size = H5Tget_size(type.get());
+  // Null-padded memory type of the stored size keeps every character; the string ends at the first NUL.
+  H5Tset_size(memoryType.get(), size);
+  H5Tset_strpad(memoryType.get(), H5T_STR_NULLPAD);
+  std::string value(size, '\0');
+  if (H5Aread(attribute.get(), memoryType.get(), value.data()) < 0) ctx.failHdf5(label, "cannot read");
+  value.resize(std::min(value.find('\0'), value.size()));
+  return value;
+}
+
+std::map<std::string, std::string> readParameters(const Context& ctx, hid_t file) {
+  std::map<std::string, std::string> parameters;
+  if (!linkExists(file, "/parameters")) return parameters;
+  Handle group(H5Gopen2(file, "/parameters", H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) ctx.failHdf5("group /parameters", "cannot open (is it a group?)");
+  // Collect names first: an exception must not unwind through HDF5's C iteration.
+  std::vector<std::string> names;
+  const herr_t status = H5Aiterate2(
+      group.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr,
+      [](hid_t, const char* name, const H5A_info_t*, void* out) -> herr_t {
+        try {
+          static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+          return 0;
+        } catch (...) {
+          return -1;
+        }
+      },
+      &names);
+  if (status < 0) ctx.failHdf5("group /parameters", "cannot list attributes");
+  for (const std::string& name : names) parameters[name] = readStringAttribute(ctx, group.get(), name);
+  return parameters;
+}
+
+void validate(const Context& ctx, ParticleData& data) {
+  const Index n = data.count();
+  const auto particle = [&](Index i) { return fmt::format("particle {} (id {})", i, data.id[std::size_t(i)]); };
+
+  const std::string positionLabel = datasetLabel("/particles/position");
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const double x = data.position(k, i);
+      if (!std::isfinite(x)) ctx.fail(positionLabel, fmt::format("{}: {} = {} is not finite", particle(i), kAxis[k], x));
+      if (!data.box.periodic(k) && !(x >= 0.0 && x <= data.box.length(k))) {
+        ctx.fail(positionLabel, fmt::format("{}: {} = {} is outside the walled box [0, {}] along {}", particle(i),
+                                            kAxis[k], x, data.box.length(k), kAxis[k]));
+      }
+    }
+    data.position.col(i) = data.box.wrap(data.position.col(i));
+  }
+  const std::string radiusLabel = datasetLabel("/particles/radius");
+  for (Index i = 0; i < n; ++i) {
+    const double r = data.radius[i];
+    if (!(std::isfinite(r) && r > 0.0)) {
+      ctx.fail(radiusLabel, fmt::format("{}: radius must be positive and finite, got {}", particle(i), r));
+    }
+  }
+  if (data.velocity) {
+    const std::string velocityLabel = datasetLabel("/particles/velocity");
+    for (Index i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const double v = (*data.velocity)(k, i);
+        if (!std::isfinite(v)) {
+          ctx.fail(velocityLabel, fmt::format("{}: v{} = {} is not finite", particle(i), kAxis[k], v));
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) {
+  requireConsistentSizes(data);
+  if (file.extension() == ".xmf") {
+    throw ConfigError(fmt::format("{}: an HDF5 snapshot must not end in .xmf: that name is taken by its XDMF sidecar",
+                                  file.string()));
+  }
+  for (const auto& [key, value] : data.attributes) {
+    if (key.empty()) throw ConfigError("particle data: attribute keys must not be empty");
+    if (key.find('\0') != std::string::npos || value.find('\0') != std::string::npos) {
+      throw ConfigError(fmt::format("particle data: attribute '{}' contains a NUL character, which HDF5 strings cannot hold",
+                                    key.substr(0, key.find('\0'))));
+    }
+  }
+
+  const Context ctx(file);
+  const QuietErrors quiet;
+  Handle h5(H5Fcreate(ctx.name().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  if (!h5.valid()) ctx.fail(fmt::format("cannot create HDF5 file{}", hdf5Detail()));
+  const hid_t f = h5.get();
+  const auto n = static_cast<hsize_t>(data.count());
+  {
+    const Handle particles = createGroup(ctx, f, "/particles");
+    writeDataset(ctx, f, "/particles/position", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, data.position.data());
+    if (data.velocity) {
+      writeDataset(ctx, f, "/particles/velocity", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, data.velocity->data());
+    }
+    writeDataset(ctx, f, "/particles/radius", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, data.radius.data());
+    static_assert(sizeof(Index) == 4, "/particles/id is stored as int32");
+    writeDataset(ctx, f, "/particles/id", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, data.id.data());
+  }
+  {
+    const Handle box = createGroup(ctx, f, "/box");
+    writeDataset(ctx, f, "/box/lengths", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3}, data.box.lengths().data());
+    const std::int8_t periodic[3] = {std::int8_t(data.box.periodic(0)), std::int8_t(data.box.periodic(1)),
+                                     std::int8_t(data.box.periodic(2))};
+    writeDataset(ctx, f, "/box/periodic", H5T_STD_I8LE, H5T_NATIVE_INT8, {3}, periodic);
+  }
+  {
+    const Handle parameters = createGroup(ctx, f, "/parameters");
+    for (const auto& [key, value] : data.attributes) {
+      writeStringAttribute(ctx, parameters.get(), "/parameters", key, value);
+    }
+  }
+  writeDoubleAttribute(ctx, f, "time", data.time);
+  if (!h5.close()) ctx.fail(fmt::format("cannot close (flush) HDF5 file{}", hdf5Detail()));
+
+  writeXdmf(file, data);
+}
+
+ParticleData readSnapshot(const std::filesystem::path& file) {
+  const Context ctx(file);
+  std::error_code ec;
+  if (!std::filesystem::exists(file, ec)) ctx.fail("no such file");
+  if (std::filesystem::is_directory(file, ec)) ctx.fail("is a directory, not an HDF5 file");
+
+  const QuietErrors quiet;
+  const htri_t isHdf5 = H5Fis_hdf5(ctx.name().c_str());
+  if (isHdf5 < 0) ctx.fail(fmt::format("cannot open{}", hdf5Detail()));
+  if (isHdf5 == 0) ctx.fail("not an HDF5 file");
+  Handle h5(H5Fopen(ctx.name().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!h5.valid()) ctx.fail(fmt::format("cannot open HDF5 file{}", hdf5Detail()));
+  const hid_t f = h5.get();
+
+  ParticleData data;
+  // The box first: wall checks need it, and a short dataset is easier to get right.
+  Eigen::Vector3d lengths;
+  {
+    const Eigen::VectorXd values = readDoubles(ctx, f, "/box/lengths", 3);
+    for (int k = 0; k < 3; ++k) {
+      if (!(std::isfinite(values[k]) && values[k] > 0.0)) {
+        ctx.fail(datasetLabel("/box/lengths"),
+                 fmt::format("box length along {} must be positive and finite, got {}", kAxis[k], values[k]));
+      }
+    }
+    lengths = values;
+  }
+  std::array<Boundary, 3> boundaries{};
+  {
+    const std::vector<long long> values = readIntegers(ctx, f, "/box/periodic", 3);
+    for (int k = 0; k < 3; ++k) {
+      if (values[std::size_t(k)] != 0 && values[std::size_t(k)] != 1) {
+        ctx.fail(datasetLabel("/box/periodic"), fmt::format("entry {} ({}) must be 1 (periodic) or 0 (wall), got {}",
+                                                            k, kAxis[k], values[std::size_t(k)]));
+      }
+      boundaries[std::size_t(k)] = values[std::size_t(k)] == 1 ? Boundary::Periodic : Boundary::Wall;
+    }
+  }
+  data.box = Box(lengths, boundaries);
+
+  // The particle count comes from /particles/position; every other per-particle dataset must agree.
+  hsize_t n = 0;
+  {
+    const Dataset position = openDataset(ctx, f, "/particles/position");
+    if (position.shape.size() != 2 || position.shape[1] != 3) {
+      ctx.fail(position.label, fmt::format("expected shape N x 3, got {}", shapeText(position.shape)));
+    }
+    n = position.shape[0];
+    if (n > hsize_t(std::numeric_limits<Index>::max())) {
+      ctx.fail(position.label, fmt::format("{} particles exceed the maximum {}", n, std::numeric_limits<Index>::max()));
+    }
+  }
+  data.position = readRows(ctx, f, "/particles/position", n);
+  data.radius = readDoubles(ctx, f, "/particles/radius", n);
+  if (linkExists(f, "/particles/velocity")) data.velocity = readRows(ctx, f, "/particles/velocity", n);
+  {
+    const std::vector<long long> ids = readIntegers(ctx, f, "/particles/id", n);
+    data.id.resize(ids.size());
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      if (ids[i] < 0 || ids[i] > std::numeric_limits<Index>::max()) {
+        ctx.fail(datasetLabel("/particles/id"),
+                 fmt::format("particle {}: id {} is outside [0, {}]", i, ids[i], std::numeric_limits<Index>::max()));
+      }
+      data.id[i] = static_cast<Index>(ids[i]);
+    }
+    std::vector<std::pair<Index, Index>> sorted(ids.size());  // (id, slot)
+    for (std::size_t i = 0; i < ids.size(); ++i) sorted[i] = {data.id[i], static_cast<Index>(i)};
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t i = 1; i < sorted.size(); ++i) {
+      if (sorted[i].first == sorted[i - 1].first) {
+        ctx.fail(datasetLabel("/particles/id"), fmt::format("id {} appears twice (particles {} and {})", sorted[i].first,
+                                                            sorted[i - 1].second, sorted[i].second));
+      }
+    }
+  }
+  data.time = readTime(ctx, f);
+  data.attributes = readParameters(ctx, f);
+  validate(ctx, data);
+  return data;
+}
+
+#endif  // POLYDEM_WITH_HDF5
+
+}  // namespace polydem::io
