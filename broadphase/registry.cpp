@@ -1,12 +1,21 @@
 #include "broadphase/registry.hpp"
 
+#include <array>
+
 #include <fmt/format.h>
 
 #include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
+#include "broadphase/hgrid.hpp"
 #include "broadphase/linked_cell.hpp"
+#include "broadphase/sweep_and_prune.hpp"
 #include "core/errors.hpp"
 #include "polydem/config.hpp"
+
+#if POLYDEM_WITH_CGAL
+#include "broadphase/cgal_box.hpp"
+#include "broadphase/delaunay.hpp"
+#endif
 
 namespace polydem::broadphase {
 namespace {
@@ -25,10 +34,21 @@ struct Entry {
 constexpr Entry kBackends[] = {
     {"brute", &make<BruteForce>},
     {"linked-cell", &make<LinkedCell>},
+    {"hgrid-td", &make<HGridTopDown>},
+    {"hgrid-bu", &make<HGridBottomUp>},
+    {"sap", &make<SweepAndPrune>},
+#if POLYDEM_WITH_CGAL
+    {"cgal-box", &make<CgalBox>},
+    {"delaunay", &make<Delaunay>},
+#endif
 };
 
-// Names reserved for backends of later milestones, so the error can say why they are missing.
-constexpr std::string_view kPlanned[] = {"hgrid-td", "hgrid-bu", "delaunay", "sap", "cgal-box"};
+// Backends left out of this build (optional dependency off), so the error can say why they are missing.
+#if POLYDEM_WITH_CGAL
+constexpr std::array<std::string_view, 0> kPlanned{};
+#else
+constexpr std::array<std::string_view, 2> kPlanned{"delaunay", "cgal-box"};
+#endif
 
 }  // namespace
 

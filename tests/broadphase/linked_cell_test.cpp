@@ -35,14 +35,14 @@ TEST(LinkedCell, CellCountIsCappedForDiluteSystems) {
 TEST(LinkedCell, TwoCellPeriodicAxisUsesDeduplicatedStencil) {
   // Box 4.5 wide, cutoff 2.1: two cells along x, whose forward and backward neighbours coincide.
   test::Scene s;
-  s.box = Box(Eigen::Vector3d(4.5, 20.0, 20.0), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic});
+  s.box = Box::cubic(4.5, Boundary::Periodic);
   s.centre.resize(3, 2);
-  s.centre.col(0) << 0.5, 10.0, 10.0;
-  s.centre.col(1) << 3.0, 10.0, 10.0;  // 2.5 apart directly, 2.0 through the image
+  s.centre.col(0) << 0.5, 2.0, 2.0;
+  s.centre.col(1) << 3.0, 2.0, 2.0;  // 2.5 apart directly, 2.0 through the image
   s.radius = Eigen::VectorXd::Constant(2, 1.0);
   LinkedCell lc;
   lc.build(s.spheres(), s.box, 0.1);
-  EXPECT_EQ(lc.cellsPerAxis()[0], 2);
+  EXPECT_EQ(lc.cellsPerAxis(), (std::array<int, 3>{2, 2, 2}));
   std::vector<Pair> pairs;
   lc.findPairs(s.spheres(), pairs);
   EXPECT_EQ(pairs, (std::vector<Pair>{{0, 1}}));  // exactly once
