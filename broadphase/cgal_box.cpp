@@ -45,8 +45,8 @@ void CgalBox::doBuild(const SphereView& spheres) {
     boxes.push_back(b);
     owner.push_back(particle);
   };
-  for (Index i = 0; i < n; ++i) add(spheres.centre.col(i).data(), spheres.radius[i] + 0.5 * skin_ + margin,
-                                    Eigen::Vector3d::Zero(), i);
+  for (Index i = 0; i < n; ++i)
+    add(spheres.centre.col(i).data(), spheres.radius[i] + 0.5 * skin_ + margin, Eigen::Vector3d::Zero(), i);
   // Images: along a periodic axis a pair meeting through the face has one of its two spheres within
   // its own half-extent of that face, so images of those spheres (and their combinations over axes,
   // matched image-to-image too) cover every pair.

@@ -27,7 +27,7 @@ class PairTable {
 
   Index count_ = 0;
   std::vector<Pair> pairs_;
-  std::vector<Pair> merged_;                  // scratch for replaceRows
+  std::vector<Pair> merged_;  // scratch for replaceRows
   mutable bool adjacencyValid_ = false;
   mutable std::vector<Index> start_, adjacent_;  // CSR over both directions, built on first query
 };

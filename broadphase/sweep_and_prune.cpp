@@ -13,7 +13,8 @@ namespace polydem::broadphase {
 
 namespace {
 
-// Minimum image of one coordinate difference, the same rule as Box::minimumImage.
+// Minimum image of one coordinate difference, the same rule as Box::minimumImage. (An arithmetic,
+// branch-free form measured about 20% slower in the sweep.)
 inline double wrapAxis(double d, double length, double half) {
   if (d > half) return d - length;
   if (d < -half) return d + length;
@@ -97,6 +98,7 @@ void SweepAndPrune::sortAndPack(const SphereView& spheres, bool reuseOrder) {
 
   slots_.resize(static_cast<std::size_t>(n));
   start_.resize(static_cast<std::size_t>(n));
+  cross_.resize(3 * static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   double maxE = 0.0;
   for (Index s = 0; s < n; ++s) {
@@ -109,6 +111,9 @@ void SweepAndPrune::sortAndPack(const SphereView& spheres, bool reuseOrder) {
     slot.e = slot.r + 0.5 * skin_ + margin_;
     slot.particle = i;
     start_[s] = key_[i];
+    cross_[3 * s] = slot.c[(axis_ + 1) % 3];
+    cross_[3 * s + 1] = slot.c[(axis_ + 2) % 3];
+    cross_[3 * s + 2] = slot.e;
     slotOf_[i] = s;
     maxE = std::max(maxE, slot.e);
   }
@@ -133,29 +138,35 @@ void SweepAndPrune::sweep(std::vector<Pair>& out) const {
   const double length = box_.length(axis_);
   std::uint64_t tests = 0;
 
-  auto test = [&](const Slot& A, const Slot& B) {
+  // The sweep reads start_ and the packed cross-axis data (3 doubles per slot); the full slot is
+  // only touched for the exact test.
+  const double* cross = cross_.data();
+  auto test = [&](Index s, Index t) {
     if constexpr (kCount) ++tests;
-    const double reach = A.e + B.e;
-    double d1 = A.c[a1] - B.c[a1];
+    const double* a = cross + 3 * s;
+    const double* b = cross + 3 * t;
+    const double reach = a[2] + b[2];
+    double d1 = a[0] - b[0];
     if (p1) d1 = wrapAxis(d1, l1, h1);
-    if (std::abs(d1) > reach) return;
-    double d2 = A.c[a2] - B.c[a2];
+    if (std::abs(d1) > reach) return;  // most candidates stop here: skip the second axis
+    double d2 = a[1] - b[1];
     if (p2) d2 = wrapAxis(d2, l2, h2);
     if (std::abs(d2) > reach) return;
+    const Slot& A = slots_[s];
+    const Slot& B = slots_[t];
     if (spheresWithinReach(box_, A.c, A.r, B.c, B.r, skin_)) {
       out.push_back(A.particle < B.particle ? Pair{A.particle, B.particle} : Pair{B.particle, A.particle});
     }
   };
 
   for (Index s = 0; s < n; ++s) {
-    const Slot& A = slots_[s];
-    const double end = start_[s] + 2.0 * A.e;
+    const double end = start_[s] + 2.0 * cross[3 * s + 2];
     Index t = s + 1;
-    for (; t < n && start_[t] <= end; ++t) test(A, slots_[t]);
+    for (; t < n && start_[t] <= end; ++t) test(s, t);
     if (end >= length && ghosts_ > 0) {
       // The box wraps through the upper face: sweep the leading boxes again, shifted by +L.
       for (Index g = 0; g < ghosts_ && start_[g] + length <= end; ++g) {
-        if (g != s) test(A, slots_[g]);
+        if (g != s) test(s, g);
       }
     }
   }
@@ -212,13 +223,12 @@ void SweepAndPrune::findNeighbours(const SphereView&, Index i, double reach, std
 
 std::size_t SweepAndPrune::memoryBytes() const {
   return order_.capacity() * sizeof(Index) + key_.capacity() * sizeof(double) + slotOf_.capacity() * sizeof(Index) +
-         start_.capacity() * sizeof(double) + slots_.capacity() * sizeof(Slot);
+         (start_.capacity() + cross_.capacity()) * sizeof(double) + slots_.capacity() * sizeof(Slot);
 }
 
 std::string SweepAndPrune::describe() const {
   return fmt::format("sap along {} ({} ghost boxes{}), last sort: {} ({} shifts)", "xyz"[axis_], ghosts_,
-                     box_.periodic(axis_) ? ", periodic" : "", lastInsertion_ ? "insertion" : "std::sort",
-                     lastShifts_);
+                     box_.periodic(axis_) ? ", periodic" : "", lastInsertion_ ? "insertion" : "std::sort", lastShifts_);
 }
 
 void SweepAndPrune::validate(const SphereView& spheres) const {

@@ -53,17 +53,18 @@ class SweepAndPrune final : public BroadPhase {
   void sweep(std::vector<Pair>& out) const;
 
   int axis_ = 0;
-  double margin_ = 0.0;            // absolute round-off margin added to every half-extent
-  double maxWidth_ = 0.0;          // largest box width 2 e along the sweep axis
-  Index ghosts_ = 0;               // leading slots swept again at +L (periodic sweep axis)
-  bool mayDuplicate_ = false;      // two boxes can meet both directly and through the face
+  double margin_ = 0.0;        // absolute round-off margin added to every half-extent
+  double maxWidth_ = 0.0;      // largest box width 2 e along the sweep axis
+  Index ghosts_ = 0;           // leading slots swept again at +L (periodic sweep axis)
+  bool mayDuplicate_ = false;  // two boxes can meet both directly and through the face
   bool lastInsertion_ = false;
   std::size_t lastShifts_ = 0;
-  std::vector<Index> order_;       // particle per slot, sorted by (lower end, index)
-  std::vector<double> key_;        // lower end per particle
-  std::vector<Index> slotOf_;      // slot per particle
-  std::vector<double> start_;      // lower end per slot (the sweep reads only this array)
-  std::vector<Slot> slots_;
+  std::vector<Index> order_;   // particle per slot, sorted by (lower end, index)
+  std::vector<double> key_;    // lower end per particle
+  std::vector<Index> slotOf_;  // slot per particle
+  std::vector<double> start_;  // lower end per slot
+  std::vector<double> cross_;  // per slot: the two other coordinates and e, for the box test
+  std::vector<Slot> slots_;    // per slot: everything the exact test needs
 };
 
 }  // namespace polydem::broadphase
