@@ -53,9 +53,9 @@ void LinkedCell::doBuild(const SphereView& spheres) {
   sorted_.resize(static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   packed_.resize(4, n);
-  std::vector<Index> fill(cellStart_.begin(), cellStart_.end() - 1);
+  fill_.assign(cellStart_.begin(), cellStart_.end() - 1);  // reuses capacity: no allocation in steady state
   for (Index i = 0; i < n; ++i) {
-    const Index slot = fill[cellOf_[i]]++;
+    const Index slot = fill_[cellOf_[i]]++;
     sorted_[slot] = i;
     slotOf_[i] = slot;
     packed_.col(slot) << spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i];

@@ -53,6 +53,7 @@ class LinkedCell final : public BroadPhase {
   std::vector<Index> sorted_;            // particle index per slot
   std::vector<Index> slotOf_;            // slot per particle
   std::vector<int> cellOf_;              // cell per particle
+  std::vector<Index> fill_;              // build scratch: next free slot per cell
   Eigen::Matrix4Xd packed_;              // x, y, z, r per slot
 };
 

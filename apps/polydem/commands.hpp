@@ -11,5 +11,8 @@ using Runner = std::function<int()>;
 Runner addGenerate(CLI::App& app);
 Runner addPairs(CLI::App& app);
 Runner addExample(CLI::App& app);
+Runner addRelax(CLI::App& app);
+Runner addJam(CLI::App& app);
+Runner addBench(CLI::App& app);
 
 }  // namespace polydem::app

@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
   add(&polydem::app::addGenerate);
   add(&polydem::app::addPairs);
   add(&polydem::app::addExample);
+  add(&polydem::app::addRelax);
+  add(&polydem::app::addJam);
+  add(&polydem::app::addBench);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,166 @@
+#include "contact/contact_law.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "core/errors.hpp"
+
+namespace polydem::contact {
+
+namespace {
+
+void requireFinite(std::string_view key, double value) {
+  if (!std::isfinite(value)) throw ConfigError(fmt::format("{} must be a finite number, got {}", key, value));
+}
+
+}  // namespace
+
+void ContactParameters::validate() const {
+  requireFinite("contact.stiffness", stiffness);
+  if (!(stiffness > 0.0)) throw ConfigError(fmt::format("contact.stiffness must be > 0, got {}", stiffness));
+  requireFinite("contact.restitution", restitution);
+  if (restitution < 0.0 || restitution > 1.0) {
+    throw ConfigError(fmt::format("contact.restitution must be in [0, 1], got {}", restitution));
+  }
+  requireFinite("contact.friction", friction);
+  if (friction < 0.0) throw ConfigError(fmt::format("contact.friction must be >= 0, got {}", friction));
+  requireFinite("contact.tangential_stiffness_ratio", tangentialStiffnessRatio);
+  if (!(tangentialStiffnessRatio > 0.0)) {
+    throw ConfigError(fmt::format("contact.tangential_stiffness_ratio must be > 0, got {}", tangentialStiffnessRatio));
+  }
+  requireFinite("contact.tangential_damping_ratio", tangentialDampingRatio);
+  if (tangentialDampingRatio < 0.0) {
+    throw ConfigError(fmt::format("contact.tangential_damping_ratio must be >= 0, got {}", tangentialDampingRatio));
+  }
+  requireFinite("contact.reference_velocity", referenceVelocity);
+  if (referenceVelocity < 0.0) {
+    throw ConfigError(fmt::format("contact.reference_velocity must be >= 0, got {}", referenceVelocity));
+  }
+  if (normal == NormalModel::Hertz && scaling == StiffnessScaling::Radius) {
+    throw ConfigError(
+        "contact.stiffness_scaling = \"radius\" applies to the linear law only: the Hertz law already scales "
+        "with sqrt(R_eff)");
+  }
+  if (normal == NormalModel::Hertz && restitution < 1e-3) {
+    throw ConfigError(fmt::format(
+        "contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
+        "linear law for nearly plastic contacts",
+        restitution));
+  }
+}
+
+std::string ContactParameters::describe() const {
+  std::string text;
+  if (normal == NormalModel::Linear) {
+    text = scaling == StiffnessScaling::Constant ? fmt::format("linear k = {:g} N/m", stiffness)
+                                                 : fmt::format("linear k = {:g} R_eff N/m", stiffness);
+  } else {
+    text = fmt::format("hertz K = {:g} Pa", stiffness);
+  }
+  text += fmt::format(", e = {:g}", restitution);
+  if (friction > 0.0) {
+    text += fmt::format(", mu = {:g}, k_t/k_n = {:g}, c_t/c_n = {:g}", friction, tangentialStiffnessRatio,
+                        tangentialDampingRatio);
+  } else {
+    text += ", frictionless";
+  }
+  return text;
+}
+
+double linearDampingRatio(double restitution) {
+  if (restitution <= 0.0) return 1.0;
+  const double l = std::log(restitution);
+  return -l / std::sqrt(kPi * kPi + l * l);
+}
+
+HertzCollision integrateHertzCollision(double alpha) {
+  // Adaptive RK4: the step follows x / |v| so the singular x^(1/4) at both ends of the contact is
+  // resolved (steps shrink geometrically towards x = 0), with at most 1e-3 in the middle.
+  auto accel = [alpha](double x, double v) {
+    if (x <= 0.0) return 0.0;
+    const double root = std::sqrt(x);
+    return -x * root - alpha * std::sqrt(root) * v;
+  };
+  double x = 0.0, v = 1.0, t = 0.0;
+  for (int iter = 0; iter < 10'000'000; ++iter) {
+    const double h = std::clamp(0.02 * x / std::max(std::abs(v), 1e-300), 1e-10, 1e-3);
+    const double k1x = v, k1v = accel(x, v);
+    const double k2x = v + 0.5 * h * k1v, k2v = accel(x + 0.5 * h * k1x, v + 0.5 * h * k1v);
+    const double k3x = v + 0.5 * h * k2v, k3v = accel(x + 0.5 * h * k2x, v + 0.5 * h * k2v);
+    const double k4x = v + h * k3v, k4v = accel(x + h * k3x, v + h * k3v);
+    const double xn = x + h / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+    const double vn = v + h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    if (xn <= 0.0 && t > 0.0) {
+      const double s = x / (x - xn);  // linear interpolation of the crossing inside this (tiny) step
+      return {-(v + s * (vn - v)), t + s * h};
+    }
+    x = xn;
+    v = vn;
+    t += h;
+  }
+  return {0.0, t};  // never returned: fully plastic within the iteration budget
+}
+
+HertzDamping hertzDamping(double restitution) {
+  if (restitution >= 1.0) return {0.0, integrateHertzCollision(0.0).tau};
+  // e(alpha) decreases monotonically from 1 at alpha = 0: bracket, then bisect.
+  double lo = 0.0, hi = 0.5;
+  HertzCollision c = integrateHertzCollision(hi);
+  while (c.restitution > restitution) {
+    lo = hi;
+    hi *= 2.0;
+    if (hi > 1e4) {
+      throw ConfigError(fmt::format("contact.restitution = {} is not reachable with the Hertz dashpot", restitution));
+    }
+    c = integrateHertzCollision(hi);
+  }
+  for (int iter = 0; iter < 60 && hi - lo > 1e-12 * hi; ++iter) {
+    const double mid = 0.5 * (lo + hi);
+    if (integrateHertzCollision(mid).restitution > restitution) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  const double alpha = 0.5 * (lo + hi);
+  return {alpha, integrateHertzCollision(alpha).tau};
+}
+
+ContactModel::ContactModel(const ContactParameters& parameters) : parameters_(parameters) {
+  parameters_.validate();
+  zeta_ = linearDampingRatio(parameters_.restitution);
+  if (parameters_.normal == NormalModel::Hertz) hertz_ = hertzDamping(parameters_.restitution);
+}
+
+double ContactModel::contactDuration(double meff, double reff, double speed) const {
+  if (parameters_.normal == NormalModel::Linear) {
+    const double k = LinearNormal::pairStiffness(linearParams(), reff);
+    const double omega0 = std::sqrt(k / meff);
+    return zeta_ < 1.0 ? kPi / (omega0 * std::sqrt(1.0 - zeta_ * zeta_)) : kPi / omega0;
+  }
+  const double kij = parameters_.stiffness * std::sqrt(reff);
+  return hertz_.tau * std::pow(meff / kij, 0.4) * std::pow(speed, -0.2);
+}
+
+double ContactModel::normalEnergy(double overlap, double reff) const {
+  return parameters_.normal == NormalModel::Linear ? LinearNormal::energy(linearParams(), overlap, reff)
+                                                   : HertzNormal::energy(hertzParams(), overlap, reff);
+}
+
+double ContactModel::speedForOverlap(double overlap, double meff, double reff) const {
+  return std::sqrt(2.0 * normalEnergy(overlap, reff) / meff);
+}
+
+double ContactModel::stiffnessForOverlap(double overlap, double meff, double reff, double speed) const {
+  const double energy = 0.5 * meff * speed * speed;
+  if (parameters_.normal == NormalModel::Linear) {
+    const double k = 2.0 * energy / (overlap * overlap);
+    return parameters_.scaling == StiffnessScaling::Radius ? k / reff : k;
+  }
+  return energy / (0.4 * std::sqrt(reff) * overlap * overlap * std::sqrt(overlap));
+}
+
+}  // namespace polydem::contact

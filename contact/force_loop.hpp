@@ -1,0 +1,89 @@
+#pragma once
+// The force loop: contact forces (and torques) over a ContactList, plus walls, gravity and global
+// viscous damping, written as one template over the contact law and the scene's feature flags.
+//
+// Runtime choices become compile-time ones in exactly one place, selectForceKernel(): a frictionless,
+// wall-free, gravity-free scene runs computeForces<LinearLaw, {}> which has no rotation arrays, no
+// history, no wall loop and no branches for any of them. Every shipped combination is instantiated
+// once in force_loop_instances.cpp (4 laws x 8 flag sets).
+//
+// Velocities: velocity Verlet evaluates forces at positions x(t + dt) while the velocities are at
+// t + dt/2. Dashpots and viscous damping use the predicted v(t + dt) = v(t + dt/2) + dt/2 a(t)
+// (`velocity`), which keeps the dissipated energy second-order accurate; with v(t + dt/2) the head-on
+// restitution is off by about zeta omega_0 dt (5% at e = 0.1, f = 50). The tangential spring grows by
+// v_t(t + dt/2) dt (`velocityHalf`), the midpoint rule for the slip displacement.
+#include <cstddef>
+#include <string>
+
+#include "contact/contact_history.hpp"
+#include "contact/contact_law.hpp"
+#include "contact/contact_list.hpp"
+#include "core/types.hpp"
+
+namespace polydem::contact {
+
+/// Scene features the kernel is specialised on (besides the law). Structural: usable as a template
+/// argument.
+struct KernelFlags {
+  bool walls = false;    ///< some axis is walled: particle-wall contacts from ContactList
+  bool gravity = false;  ///< F += m g
+  bool viscous = false;  ///< F -= gamma m v, torque -= gamma I omega
+  bool operator==(const KernelFlags&) const = default;
+};
+
+/// Everything the kernel reads and writes, as raw column-major 3 x N arrays (SI units). Non-owning.
+struct ForceContext {
+  Index count = 0;
+  const double* position = nullptr;      ///< x(t + dt)
+  const double* velocityHalf = nullptr;  ///< v(t + dt/2)
+  const double* velocity = nullptr;      ///< v(t + dt) predicted; may equal velocityHalf when unused
+  const double* radius = nullptr;
+  const double* inverseMass = nullptr;
+  double* force = nullptr;  ///< overwritten
+  // Rotation: null unless the law uses rotation.
+  const double* angularVelocityHalf = nullptr;
+  const double* angularVelocity = nullptr;
+  const double* inverseInertia = nullptr;
+  double* torque = nullptr;  ///< overwritten
+  const ContactList* list = nullptr;
+  ContactHistory* pairHistory = nullptr;  ///< parallel to list->neighbour; width Law::kHistorySize
+  ContactHistory* wallHistory = nullptr;  ///< parallel to list->wallParticle
+  double length[3] = {1.0, 1.0, 1.0};      ///< box edges
+  double halfLength[3] = {0.5, 0.5, 0.5};  ///< L/2 on periodic axes, +inf on walled axes (no image)
+  double gravity[3] = {0.0, 0.0, 0.0};     ///< m/s^2
+  double viscousRate = 0.0;                ///< gamma, 1/s
+  double dt = 0.0;                         ///< s, for the tangential spring increment
+};
+
+/// Overwrite force (and torque) with the total force on every particle. O(N + P + W); no allocation.
+template <class Law, KernelFlags kFlags>
+void computeForces(const typename Law::Params& params, const ForceContext& ctx);
+
+using ForceKernelFn = void (*)(const ContactModel& model, const ForceContext& ctx);
+
+struct ForceKernel {
+  ForceKernelFn run = nullptr;
+  bool rotation = false;  ///< needs angular velocity, torque, inertia
+  int historyWidth = 0;   ///< doubles per contact in the histories
+  std::string name;       ///< e.g. "linear+frictionless [walls]"
+};
+
+/// The one runtime -> compile-time switch. `general` forces the most general kernel of the normal law
+/// (Cundall-Strack tangential, walls, gravity and viscous terms compiled in) for comparisons: with
+/// mu = 0, g = 0 and gamma = 0 it computes the same forces as the specialised kernel, just slower.
+ForceKernel selectForceKernel(const ContactModel& model, KernelFlags flags, bool general = false);
+
+/// Observables of the current contacts, for reports and the stability checker (not in the hot path).
+struct ContactStats {
+  std::size_t contacts = 0;      ///< particle pairs with overlap > 0
+  std::size_t wallContacts = 0;  ///< particle-wall contacts with overlap > 0
+  double maxOverlapRatio = 0.0;  ///< largest overlap / smaller radius (walls: / radius)
+  Index maxOverlapI = -1;        ///< slot of the particle with the largest overlap ratio
+  Index maxOverlapJ = -1;        ///< its partner's slot, or -1 - face for a wall
+  double elasticEnergy = 0.0;    ///< normal springs + tangential springs (J)
+};
+
+/// Measure contacts over the list (reads positions and histories only). O(N + P + W).
+ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx);
+
+}  // namespace polydem::contact

@@ -1,0 +1,147 @@
+// Every shipped force-kernel combination, instantiated once, and the dispatch that picks one.
+#include <type_traits>
+
+#include <fmt/format.h>
+
+#include "contact/force_loop_impl.hpp"
+#include "core/errors.hpp"
+
+namespace polydem::contact {
+
+// 4 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
+#define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                              \
+  template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
+  template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{false, true, false}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{true, true, false}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{false, false, true}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{true, false, true}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{false, true, true}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{true, true, true}>(const LAW::Params&, const ForceContext&);
+
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(HertzLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearFrictionLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(HertzFrictionLaw)
+#undef POLYDEM_FORCE_KERNEL_INSTANCES
+
+namespace {
+
+template <class Law>
+typename Law::Params paramsFor(const ContactModel& model) {
+  typename Law::Params p{};
+  if constexpr (std::is_same_v<typename Law::NormalLaw, LinearNormal>) {
+    p.normal = model.linearParams();
+  } else {
+    p.normal = model.hertzParams();
+  }
+  if constexpr (std::is_same_v<typename Law::TangentialLaw, CundallStrack>) p.tangential = model.tangentialParams();
+  return p;
+}
+
+template <class Law, KernelFlags kFlags>
+void runKernel(const ContactModel& model, const ForceContext& ctx) {
+  computeForces<Law, kFlags>(paramsFor<Law>(model), ctx);
+}
+
+template <class Law>
+ForceKernelFn pickFlags(KernelFlags flags) {
+  const int code = (flags.walls ? 1 : 0) | (flags.gravity ? 2 : 0) | (flags.viscous ? 4 : 0);
+  switch (code) {
+    case 0: return &runKernel<Law, KernelFlags{false, false, false}>;
+    case 1: return &runKernel<Law, KernelFlags{true, false, false}>;
+    case 2: return &runKernel<Law, KernelFlags{false, true, false}>;
+    case 3: return &runKernel<Law, KernelFlags{true, true, false}>;
+    case 4: return &runKernel<Law, KernelFlags{false, false, true}>;
+    case 5: return &runKernel<Law, KernelFlags{true, false, true}>;
+    case 6: return &runKernel<Law, KernelFlags{false, true, true}>;
+    default: return &runKernel<Law, KernelFlags{true, true, true}>;
+  }
+}
+
+template <class Law>
+ForceKernel make(KernelFlags flags) {
+  std::string name = fmt::format("{}+{}", Law::NormalLaw::kName, Law::TangentialLaw::kName);
+  std::string features;
+  if (flags.walls) features += " walls";
+  if (flags.gravity) features += " gravity";
+  if (flags.viscous) features += " viscous";
+  name += features.empty() ? std::string(" [no walls, gravity or damping]") : " [" + features.substr(1) + "]";
+  return {pickFlags<Law>(flags), Law::kUsesRotation, Law::kHistorySize, name};
+}
+
+}  // namespace
+
+ForceKernel selectForceKernel(const ContactModel& model, KernelFlags flags, bool general) {
+  const bool linear = model.parameters().normal == NormalModel::Linear;
+  const bool friction = general || model.parameters().usesFriction();
+  if (general) flags = {true, true, true};
+  if (linear) return friction ? make<LinearFrictionLaw>(flags) : make<LinearLaw>(flags);
+  return friction ? make<HertzFrictionLaw>(flags) : make<HertzLaw>(flags);
+}
+
+ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx) {
+  ContactStats s;
+  const bool hasHistory = ctx.pairHistory != nullptr && ctx.pairHistory->width() > 0;
+  const CundallStrack::Params tp = model.tangentialParams();
+  const bool linear = model.parameters().normal == NormalModel::Linear;
+  auto tangentialStiffness = [&](double overlap, double reff) {
+    if (linear) return tp.stiffnessRatio * LinearNormal::pairStiffness(model.linearParams(), reff);
+    return tp.stiffnessRatio * model.parameters().stiffness * std::sqrt(reff) * std::sqrt(overlap);
+  };
+  auto consider = [&](double ratio, Index i, Index j) {
+    if (ratio > s.maxOverlapRatio) {
+      s.maxOverlapRatio = ratio;
+      s.maxOverlapI = i;
+      s.maxOverlapJ = j;
+    }
+  };
+  const ContactList& list = *ctx.list;
+  for (Index i = 0; i < ctx.count; ++i) {
+    const Eigen::Vector3d xi = detail::load(ctx.position, i);
+    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
+      const Index j = list.neighbour[c];
+      Eigen::Vector3d d = xi - detail::load(ctx.position, j);
+      for (int k = 0; k < 3; ++k) {  // the kernel's minimum image (halfLength = inf on walled axes)
+        if (d[k] > ctx.halfLength[k]) {
+          d[k] -= ctx.length[k];
+        } else if (d[k] < -ctx.halfLength[k]) {
+          d[k] += ctx.length[k];
+        }
+      }
+      const double dist = d.norm();
+      const double ri = ctx.radius[i], rj = ctx.radius[j];
+      const double overlap = ri + rj - dist;
+      if (!(overlap > 0.0)) continue;
+      ++s.contacts;
+      const double reff = ri * rj / (ri + rj);
+      s.elasticEnergy += model.normalEnergy(overlap, reff);
+      if (hasHistory) {
+        const double* xi3 = ctx.pairHistory->values(static_cast<std::size_t>(c));
+        const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
+        s.elasticEnergy += 0.5 * tangentialStiffness(overlap, reff) * sq;
+      }
+      consider(overlap / std::min(ri, rj), i, j);
+    }
+  }
+  const bool wallHistory = ctx.wallHistory != nullptr && ctx.wallHistory->width() > 0;
+  for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
+    const Index i = list.wallParticle[c];
+    const int face = list.wallFace[c];
+    const int axis = face >> 1;
+    const double gap = (face & 1) ? ctx.length[axis] - ctx.position[3 * i + axis] : ctx.position[3 * i + axis];
+    const double overlap = ctx.radius[i] - gap;
+    if (!(overlap > 0.0)) continue;
+    ++s.wallContacts;
+    s.elasticEnergy += model.normalEnergy(overlap, ctx.radius[i]);
+    if (wallHistory) {
+      const double* xi3 = ctx.wallHistory->values(c);
+      const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
+      s.elasticEnergy += 0.5 * tangentialStiffness(overlap, ctx.radius[i]) * sq;
+    }
+    consider(overlap / ctx.radius[i], i, -1 - face);
+  }
+  return s;
+}
+
+}  // namespace polydem::contact

@@ -1,0 +1,454 @@
+#include "integrators/dem_simulation.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "broadphase/registry.hpp"
+#include "core/errors.hpp"
+
+namespace polydem::integrators {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
+
+double resolveSkin(double skin, const ParticleStore& particles) {
+  if (skin >= 0.0) return skin;
+  if (particles.count() == 0) return 0.0;  // the constructor reports the empty store
+  return 0.2 * particles.radius().minCoeff();
+}
+
+std::uint64_t spreadBits(std::uint64_t v) {  // 10 bits -> every third bit of 30
+  v &= 0x3ff;
+  v = (v | (v << 16)) & 0x30000ff;
+  v = (v | (v << 8)) & 0x300f00f;
+  v = (v | (v << 4)) & 0x30c30c3;
+  v = (v | (v << 2)) & 0x9249249;
+  return v;
+}
+
+std::string faceName(int face) { return fmt::format("{}{}", (face & 1) ? "+" : "-", "xyz"[face >> 1]); }
+
+}  // namespace
+
+void StabilityLimits::validate() const {
+  if (checkInterval < 0) {
+    throw ConfigError(fmt::format("run.check_interval must be >= 0 (0 = never), got {}", checkInterval));
+  }
+  if (!(maxOverlapFraction > 0.0 && std::isfinite(maxOverlapFraction))) {
+    throw ConfigError(fmt::format("run.max_overlap_fraction must be > 0, got {}", maxOverlapFraction));
+  }
+  if (!(energyTolerance > 0.0 && std::isfinite(energyTolerance))) {
+    throw ConfigError(fmt::format("run.energy_tolerance must be > 0, got {}", energyTolerance));
+  }
+}
+
+std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box) {
+  const auto n = static_cast<Index>(centres.cols());
+  std::vector<std::uint64_t> code(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) {
+    std::uint64_t c = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double s = std::clamp(centres(k, i) / box.length(k), 0.0, 1.0);
+      const auto cell = static_cast<std::uint64_t>(std::min(1023.0, std::floor(s * 1024.0)));
+      c |= spreadBits(cell) << k;
+    }
+    code[static_cast<std::size_t>(i)] = c;
+  }
+  std::vector<Index> order(static_cast<std::size_t>(n));
+  std::iota(order.begin(), order.end(), Index{0});
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return code[a] < code[b]; });
+  return order;
+}
+
+DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemSettings& settings)
+    : particles_(std::move(particles)),
+      box_(box),
+      settings_(settings),
+      model_(settings.contact),
+      verlet_(broadphase::makeBroadPhase(settings.broadPhase), resolveSkin(settings.skin, particles_)) {
+  settings_.skin = verlet_.skin();
+  settings_.stability.validate();
+  if (!settings_.gravity.allFinite()) throw ConfigError("run.gravity must be finite");
+  if (!(settings_.viscousDamping >= 0.0 && std::isfinite(settings_.viscousDamping))) {
+    throw ConfigError(fmt::format("run.viscous_damping must be >= 0, got {}", settings_.viscousDamping));
+  }
+  if (!(settings_.timeStep >= 0.0 && std::isfinite(settings_.timeStep))) {
+    throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", settings_.timeStep));
+  }
+
+  // Particles: sane values, periodic coordinates wrapped, walled ones inside the box.
+  const Index n = particles_.count();
+  if (n == 0) throw ConfigError("no particles to simulate");
+  Eigen::Matrix3Xd& x = particles_.position();
+  for (Index i = 0; i < n; ++i) {
+    const Index id = particles_.id()[static_cast<std::size_t>(i)];
+    const double r = particles_.radius()[i];
+    const double im = particles_.inverseMass()[i];
+    if (!(r > 0.0 && std::isfinite(r))) throw ConfigError(fmt::format("particle id {}: radius {} must be > 0", id, r));
+    if (!(im > 0.0 && std::isfinite(im))) {
+      throw ConfigError(fmt::format("particle id {}: mass 1/{} must be positive and finite", id, im));
+    }
+    if (!x.col(i).allFinite() || !particles_.velocity().col(i).allFinite()) {
+      throw ConfigError(fmt::format("particle id {}: non-finite position or velocity", id));
+    }
+    x.col(i) = box_.wrap(x.col(i));
+    if (!box_.contains(x.col(i))) {
+      throw ConfigError(fmt::format("particle id {}: centre ({}, {}, {}) outside the walled box {}", id, x(0, i),
+                                    x(1, i), x(2, i), box_.describe()));
+    }
+  }
+
+  const bool rotationLaw = model_.parameters().usesFriction() || settings_.generalKernel;
+  if (rotationLaw && !particles_.features().rotation) {
+    throw ConfigError(fmt::format(
+        "contact.friction = {} {}needs rotation, but the particle store was created without Features::rotation",
+        model_.parameters().friction, settings_.generalKernel ? "(or the general kernel) " : ""));
+  }
+  if (settings_.spatialSort) {
+    const std::vector<Index> order = mortonOrder(particles_.position(), box_);
+    particles_.reorder(order);
+  }
+
+  flags_.walls = box_.hasWalls();
+  flags_.gravity = settings_.gravity != Eigen::Vector3d::Zero();
+  flags_.viscous = settings_.viscousDamping > 0.0;
+  kernel_ = contact::selectForceKernel(model_, flags_, settings_.generalKernel);
+  pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
+
+  // Time step. Hertz durations depend on the impact speed: without a reference speed, use twice the
+  // fastest particle (a head-on impact of the two fastest).
+  double impactSpeed = model_.parameters().referenceVelocity;
+  if (impactSpeed == 0.0) impactSpeed = 2.0 * particles_.velocity().colwise().norm().maxCoeff();
+  timeStep_ = chooseTimeStep(model_, particles_, box_, settings_.stepsPerContact, impactSpeed);
+  if (settings_.timeStep > 0.0) {
+    timeStep_.dt = settings_.timeStep;
+    timeStep_.stepsPerContact = timeStep_.contactDuration / settings_.timeStep;
+  }
+  dt_ = timeStep_.dt;
+
+  const auto& p = model_.parameters();
+  bool gravityOnPeriodic = false;
+  for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
+  conservative_ = p.restitution == 1.0 && p.friction == 0.0 && !flags_.viscous && !gravityOnPeriodic;
+  predict_ = p.restitution < 1.0 || flags_.viscous || kernel_.rotation;
+  velocityPredicted_ = particles_.velocity();
+  if (kernel_.rotation) angularVelocityPredicted_ = particles_.angularVelocity();
+
+  rebuild();
+  computeForces();
+  initialEnergy_ = energies().total();
+}
+
+contact::ForceContext DemSimulation::context() const {
+  // The kernel writes force, torque and histories; measureContacts() only reads. One builder for both.
+  auto& self = const_cast<DemSimulation&>(*this);
+  contact::ForceContext c;
+  c.count = particles_.count();
+  c.position = particles_.position().data();
+  c.velocityHalf = particles_.velocity().data();
+  c.velocity = predict_ ? velocityPredicted_.data() : particles_.velocity().data();
+  c.radius = particles_.radius().data();
+  c.inverseMass = particles_.inverseMass().data();
+  c.force = self.particles_.force().data();
+  if (kernel_.rotation) {
+    c.angularVelocityHalf = particles_.angularVelocity().data();
+    c.angularVelocity = angularVelocityPredicted_.data();
+    c.inverseInertia = particles_.inverseInertia().data();
+    c.torque = self.particles_.torque().data();
+  }
+  c.list = &verlet_.list();
+  c.pairHistory = &self.pairHistory_;
+  c.wallHistory = &self.wallHistory_;
+  for (int k = 0; k < 3; ++k) {
+    c.length[k] = box_.length(k);
+    c.halfLength[k] = box_.periodic(k) ? 0.5 * box_.length(k) : std::numeric_limits<double>::infinity();
+    c.gravity[k] = settings_.gravity[k];
+  }
+  c.viscousRate = settings_.viscousDamping;
+  c.dt = dt_;
+  return c;
+}
+
+contact::ForceContext DemSimulation::context() { return std::as_const(*this).context(); }
+
+void DemSimulation::computeForces() { kernel_.run(model_, context()); }
+
+void DemSimulation::rebuild() {
+  Eigen::Matrix3Xd& x = particles_.position();
+  const Index n = particles_.count();
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      double& xk = x(k, i);
+      const double L = box_.length(k);
+      if (!std::isfinite(xk)) {
+        fail(fmt::format("particle id {} has a non-finite position", particles_.id()[static_cast<std::size_t>(i)]),
+             dtHint());
+      }
+      if (box_.periodic(k)) {
+        if (xk < 0.0 || xk >= L) {
+          xk -= L * std::floor(xk / L);
+          if (xk >= L) xk = 0.0;
+        }
+      } else if (xk < 0.0 || xk > L) {
+        checkStability();  // names the particle that left the box and why
+        fail(fmt::format("particle id {} left the box along {}", particles_.id()[static_cast<std::size_t>(i)],
+                         "xyz"[k]),
+             dtHint());
+      }
+    }
+  }
+  verlet_.build(particles_.spheres(), box_);
+  growthSinceBuild_ = 0.0;
+  if (kernel_.historyWidth > 0) {
+    verlet_.keys(particles_.id(), pairKeys_, wallKeys_);
+    pairHistory_.remap(pairKeys_);
+    wallHistory_.remap(wallKeys_);
+  }
+}
+
+void DemSimulation::advance(std::int64_t steps) {
+  const Index n = particles_.count();
+  const double dt = dt_;
+  const double half = 0.5 * dt;
+  for (std::int64_t s = 0; s < steps; ++s) {
+    const double limit = std::max(0.0, 0.5 * verlet_.skin() - growthSinceBuild_);
+    const double limitSq = limit * limit;
+    const Clock::time_point t0 = Clock::now();
+    double* x = particles_.position().data();
+    double* v = particles_.velocity().data();
+    const double* f = particles_.force().data();
+    const double* im = particles_.inverseMass().data();
+    const double* ref = verlet_.reference().data();
+    double* vp = velocityPredicted_.data();
+    double maxSq = 0.0;
+    // Kick, drift, displacement since the last build (and the predicted velocity) in one pass.
+    if (predict_) {
+      for (Index i = 0; i < n; ++i) {
+        const double h = half * im[i];
+        double dsq = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          const Index a = 3 * i + k;
+          v[a] += h * f[a];
+          x[a] += dt * v[a];
+          vp[a] = v[a] + h * f[a];
+          const double d = x[a] - ref[a];
+          dsq += d * d;
+        }
+        maxSq = std::max(maxSq, dsq);
+      }
+    } else {
+      for (Index i = 0; i < n; ++i) {
+        const double h = half * im[i];
+        double dsq = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          const Index a = 3 * i + k;
+          v[a] += h * f[a];
+          x[a] += dt * v[a];
+          const double d = x[a] - ref[a];
+          dsq += d * d;
+        }
+        maxSq = std::max(maxSq, dsq);
+      }
+    }
+    if (kernel_.rotation) {
+      double* w = particles_.angularVelocity().data();
+      double* wp = angularVelocityPredicted_.data();
+      const double* tq = particles_.torque().data();
+      const double* ii = particles_.inverseInertia().data();
+      for (Index i = 0; i < n; ++i) {
+        const double h = half * ii[i];
+        for (int k = 0; k < 3; ++k) {
+          const Index a = 3 * i + k;
+          w[a] += h * tq[a];
+          wp[a] = w[a] + h * tq[a];
+        }
+      }
+    }
+    const Clock::time_point t1 = Clock::now();
+    if (maxSq > limitSq) rebuild();
+    const Clock::time_point t2 = Clock::now();
+    computeForces();
+    const Clock::time_point t3 = Clock::now();
+    for (Index i = 0; i < n; ++i) {
+      const double h = half * im[i];
+      for (int k = 0; k < 3; ++k) v[3 * i + k] += h * f[3 * i + k];
+    }
+    if (kernel_.rotation) {
+      double* w = particles_.angularVelocity().data();
+      const double* tq = particles_.torque().data();
+      const double* ii = particles_.inverseInertia().data();
+      for (Index i = 0; i < n; ++i) {
+        const double h = half * ii[i];
+        for (int k = 0; k < 3; ++k) w[3 * i + k] += h * tq[3 * i + k];
+      }
+    }
+    const Clock::time_point t4 = Clock::now();
+    times_.integration += seconds(t0, t1) + seconds(t3, t4);
+    times_.broadPhase += seconds(t1, t2);
+    times_.force += seconds(t2, t3);
+    ++step_;
+    if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) {
+      checkStability();
+      times_.check += seconds(t4, Clock::now());
+    }
+  }
+}
+
+void DemSimulation::growRadii(double factor) {
+  if (!(factor >= 1.0 && std::isfinite(factor))) {
+    throw ConfigError(fmt::format("growRadii: factor must be >= 1, got {}", factor));
+  }
+  const double f3 = factor * factor * factor;
+  growthSinceBuild_ += (factor - 1.0) * particles_.radius().maxCoeff();
+  particles_.radius() *= factor;
+  particles_.inverseMass() /= f3;
+  if (particles_.features().rotation) particles_.inverseInertia() /= f3 * factor * factor;
+  // A grown pair may already have been closer than the skin allows: rebuild now if needed.
+  // Forces are not recomputed here (that would advance the tangential springs twice): the next step's
+  // first half-kick uses forces of the old radii, an O(dr) error that only compression runs see.
+  if (growthSinceBuild_ > 0.5 * verlet_.skin()) rebuild();
+  initialEnergy_ = energies().total();
+}
+
+double DemSimulation::packingFraction() const {
+  return 4.0 / 3.0 * kPi * particles_.radius().array().cube().sum() / box_.volume();
+}
+
+contact::ContactStats DemSimulation::contactStats() const { return contact::measureContacts(model_, context()); }
+
+Energies DemSimulation::energies() const {
+  Energies e;
+  const Index n = particles_.count();
+  const Eigen::Matrix3Xd& v = particles_.velocity();
+  const Eigen::VectorXd& im = particles_.inverseMass();
+  for (Index i = 0; i < n; ++i) {
+    e.kinetic += 0.5 * v.col(i).squaredNorm() / im[i];
+    if (settings_.gravity != Eigen::Vector3d::Zero()) {
+      e.potential -= settings_.gravity.dot(particles_.position().col(i)) / im[i];
+    }
+  }
+  if (particles_.features().rotation) {
+    const Eigen::Matrix3Xd& w = particles_.angularVelocity();
+    const Eigen::VectorXd& ii = particles_.inverseInertia();
+    for (Index i = 0; i < n; ++i) e.rotational += 0.5 * w.col(i).squaredNorm() / ii[i];
+  }
+  e.elastic = contactStats().elasticEnergy;
+  return e;
+}
+
+Eigen::Vector3d DemSimulation::momentum() const {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  for (Index i = 0; i < particles_.count(); ++i) p += particles_.velocity().col(i) / particles_.inverseMass()[i];
+  return p;
+}
+
+std::size_t DemSimulation::memoryBytes() const {
+  const auto n = static_cast<std::size_t>(particles_.count());
+  std::size_t bytes = n * (9 + 2) * sizeof(double) + n * sizeof(Index);  // x, v, F, r, 1/m, id
+  if (particles_.features().rotation) bytes += n * 7 * sizeof(double);
+  bytes += static_cast<std::size_t>(velocityPredicted_.size() + angularVelocityPredicted_.size()) * sizeof(double);
+  bytes += verlet_.memoryBytes() + pairHistory_.memoryBytes() + wallHistory_.memoryBytes();
+  bytes += (pairKeys_.capacity() + wallKeys_.capacity()) * sizeof(std::uint64_t);
+  return bytes;
+}
+
+std::string DemSimulation::dtHint() const {
+  const double f = timeStep_.stepsPerContact;
+  return fmt::format(
+      "dt too large for stiffness {} = {:g}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
+      "run.dt_factor f >= {:g}",
+      model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K", model_.parameters().stiffness, dt_, f,
+      timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
+}
+
+void DemSimulation::fail(const std::string& what, const std::string& cause) const {
+  throw SimulationError(fmt::format("step {} (t = {:.6g} s): {}. Likely cause: {}", step_, time(), what, cause));
+}
+
+void DemSimulation::checkStability() const {
+  const Index n = particles_.count();
+  const Eigen::Matrix3Xd& x = particles_.position();
+  const Eigen::Matrix3Xd& v = particles_.velocity();
+  auto idOf = [&](Index slot) { return particles_.id()[static_cast<std::size_t>(slot)]; };
+  double maxSpeed = 0.0;
+  for (Index i = 0; i < n; ++i) {
+    const bool rotationBad = particles_.features().rotation && !particles_.angularVelocity().col(i).allFinite();
+    if (!x.col(i).allFinite() || !v.col(i).allFinite() || rotationBad) {
+      fail(fmt::format("particle id {} (r = {:g}) has a non-finite {}", idOf(i), particles_.radius()[i],
+                       !x.col(i).allFinite() ? "position" : (rotationBad ? "angular velocity" : "velocity")),
+           dtHint());
+    }
+    maxSpeed = std::max(maxSpeed, v.col(i).norm());
+    for (int k = 0; k < 3; ++k) {
+      if (box_.periodic(k)) continue;
+      if (x(k, i) < 0.0 || x(k, i) > box_.length(k)) {
+        const double needed = model_.stiffnessForOverlap(0.05 * particles_.radius()[i], 1.0 / particles_.inverseMass()[i],
+                                                         particles_.radius()[i], std::max(maxSpeed, v.col(i).norm()));
+        fail(fmt::format("particle id {} (r = {:g}) left the walled box through the {} wall ({} = {:g}, box {})",
+                         idOf(i), particles_.radius()[i], faceName(2 * k + (x(k, i) > 0.0 ? 1 : 0)), "xyz"[k],
+                         x(k, i), box_.describe()),
+             timeStep_.stepsPerContact < 20.0
+                 ? dtHint()
+                 : fmt::format("the wall contact is too soft for the impact speed ({:.3g} m/s): stiffness >= {:.3g} "
+                               "keeps that impact below 5% of the radius",
+                               v.col(i).norm(), needed));
+      }
+    }
+  }
+
+  const contact::ContactStats stats = contactStats();
+  if (stats.maxOverlapRatio > settings_.stability.maxOverlapFraction) {
+    const Index i = stats.maxOverlapI, j = stats.maxOverlapJ;
+    const double ri = particles_.radius()[i];
+    std::string partner;
+    double meff, reff, rsmall, speed;
+    if (j >= 0) {
+      const double rj = particles_.radius()[j];
+      partner = fmt::format("particle id {} (r = {:g})", idOf(j), rj);
+      meff = 1.0 / (particles_.inverseMass()[i] + particles_.inverseMass()[j]);
+      reff = ri * rj / (ri + rj);
+      rsmall = std::min(ri, rj);
+    } else {
+      partner = fmt::format("the {} wall", faceName(-1 - j));
+      meff = 1.0 / particles_.inverseMass()[i];
+      reff = ri;
+      rsmall = ri;
+    }
+    speed = std::max(2.0 * maxSpeed, 1e-300);
+    const double needed = model_.stiffnessForOverlap(0.05 * rsmall, meff, reff, speed);
+    const std::string cause =
+        timeStep_.stepsPerContact < 20.0
+            ? dtHint()
+            : fmt::format("stiffness {:g} too soft for the impact speeds (fastest particle {:.3g} m/s): stiffness >= "
+                          "{:.3g} keeps a head-on impact of this pair below 5% of the smaller radius; or start slower "
+                          "(seed protocol: 1% overlap of the smallest particles)",
+                          model_.parameters().stiffness, maxSpeed, needed);
+    fail(fmt::format("particle id {} (r = {:g}) and {} overlap by {:.3g} of the smaller radius (limit {:g})", idOf(i),
+                     ri, partner, stats.maxOverlapRatio, settings_.stability.maxOverlapFraction),
+         cause);
+  }
+
+  if (conservative_) {
+    const double energy = energies().total();
+    const double scale = std::max(std::abs(initialEnergy_), std::numeric_limits<double>::min());
+    const double growth = (energy - initialEnergy_) / scale;
+    if (growth > settings_.stability.energyTolerance) {
+      fail(fmt::format("total energy grew by {:.3g}% since step 0 (from {:.6g} J to {:.6g} J) in an elastic run "
+                       "(tolerance {:g}%)",
+                       100.0 * growth, initialEnergy_, energy, 100.0 * settings_.stability.energyTolerance),
+           dtHint());
+    }
+  }
+}
+
+}  // namespace polydem::integrators

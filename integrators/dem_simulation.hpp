@@ -1,0 +1,148 @@
+#pragma once
+// A soft-sphere DEM run: particles, box, contact law, neighbour list and velocity Verlet.
+//
+// One step (velocity Verlet, Allen & Tildesley 2nd ed., eq. 3.19):
+//   v += dt/2 F/m;  x += dt v;  [rebuild the Verlet list if max |x - x_build| > skin/2];
+//   F = F(x, v_pred);  v += dt/2 F/m
+// with v_pred = v(t + dt/2) + dt/2 F(t)/m the predicted full-step velocity for dashpots (see
+// contact/force_loop.hpp). Rotation (omega, torque, solid-sphere inertia) is integrated the same way,
+// only when the law has friction. Periodic coordinates are wrapped into [0, L) at each rebuild, so
+// between rebuilds they stray at most skin/2 outside, which the minimum image in the kernel absorbs.
+//
+// A stability check runs every `checkInterval` steps (and on demand): non-finite state, a particle
+// outside a walled box, an overlap above a fraction of the smaller radius, or energy growth in a
+// conservative run throw SimulationError naming the step, the particles and the likely cause.
+//
+// Nothing in the time loop allocates once the neighbour list and histories have reached their size.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "contact/contact_history.hpp"
+#include "contact/contact_law.hpp"
+#include "contact/force_loop.hpp"
+#include "core/box.hpp"
+#include "core/particle_store.hpp"
+#include "integrators/time_step.hpp"
+#include "integrators/verlet_list.hpp"
+
+namespace polydem::integrators {
+
+struct StabilityLimits {
+  std::int64_t checkInterval = 100;  ///< steps between checks; 0 = only on demand
+  double maxOverlapFraction = 0.25;  ///< overlap / smaller radius that counts as an explosion
+  double energyTolerance = 1e-2;     ///< allowed relative growth of the total energy in conservative runs
+  void validate() const;
+};
+
+struct DemSettings {
+  contact::ContactParameters contact;
+  double stepsPerContact = 50.0;  ///< f: dt = t_c,min / f (>= 5)
+  double timeStep = 0.0;          ///< s; > 0 overrides the automatic dt (then f is reported as t_c,min / dt)
+  double skin = -1.0;             ///< Verlet skin (m); < 0 = 0.2 r_min
+  std::string broadPhase = "linked-cell";
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< m/s^2
+  double viscousDamping = 0.0;    ///< global damping rate gamma (1/s): F -= gamma m v
+  StabilityLimits stability;
+  bool spatialSort = true;        ///< reorder particles along a Morton curve once, for cache locality
+  bool generalKernel = false;     ///< force the most general kernel (comparisons); needs rotation arrays
+};
+
+/// Seconds spent in each phase of the time loop (wall clock).
+struct PhaseTimes {
+  double broadPhase = 0.0;   ///< displacement-triggered rebuilds, including history remapping
+  double force = 0.0;        ///< the force kernel
+  double integration = 0.0;  ///< kicks and drift (with the displacement check)
+  double check = 0.0;        ///< stability checks
+};
+
+struct Energies {
+  double kinetic = 0.0;     ///< translational, J
+  double rotational = 0.0;  ///< J
+  double elastic = 0.0;     ///< normal and tangential springs, J
+  double potential = 0.0;   ///< gravity, -sum m g.x, J (0 without gravity)
+  double total() const { return kinetic + rotational + elastic + potential; }
+};
+
+class DemSimulation {
+ public:
+  /// Validates everything (ConfigError naming the key), sorts particles spatially (optional), chooses
+  /// dt, builds the neighbour list and computes the initial forces. Periodic coordinates are wrapped.
+  DemSimulation(ParticleStore particles, const Box& box, const DemSettings& settings);
+
+  /// Advance `steps` steps. Throws SimulationError from the stability check.
+  void advance(std::int64_t steps);
+
+  /// Run the stability check now. Throws SimulationError.
+  void checkStability() const;
+
+  /// Multiply every radius by `factor` (>= 1) at constant density (masses by factor^3, inertia by
+  /// factor^5), for soft compression. The neighbour list stays valid: the rebuild criterion becomes
+  /// 2 max|dx| + 2 max(dr) > skin. The time step is kept (contacts only get longer as masses grow);
+  /// energy is no longer conserved, so the energy check restarts from the current total. O(N).
+  void growRadii(double factor);
+  /// Total sphere volume / box volume.
+  double packingFraction() const;
+
+  std::int64_t step() const { return step_; }
+  double time() const { return static_cast<double>(step_) * dt_; }
+  double dt() const { return dt_; }
+  const TimeStepChoice& timeStepChoice() const { return timeStep_; }
+  const ParticleStore& particles() const { return particles_; }
+  const Box& box() const { return box_; }
+  const contact::ContactModel& model() const { return model_; }
+  const contact::ForceKernel& kernel() const { return kernel_; }
+  const DemSettings& settings() const { return settings_; }
+  const VerletList& neighbours() const { return verlet_; }
+  const contact::ContactHistory& pairHistory() const { return pairHistory_; }
+  const contact::ContactHistory& wallHistory() const { return wallHistory_; }
+  /// Rebuilds of the neighbour list (including the initial build).
+  std::int64_t rebuilds() const { return verlet_.builds(); }
+  const PhaseTimes& times() const { return times_; }
+  /// Energies at the current step (velocities synchronised). O(N + P).
+  Energies energies() const;
+  /// Total energy at step 0.
+  double initialEnergy() const { return initialEnergy_; }
+  /// Contacts, largest overlap, elastic energy at the current step. O(N + P).
+  contact::ContactStats contactStats() const;
+  /// Total linear momentum (kg m/s).
+  Eigen::Vector3d momentum() const;
+  /// True when energy should be conserved: e = 1, mu = 0, no viscous damping, gravity only along walled axes.
+  bool conservative() const { return conservative_; }
+  /// Heap bytes held by the run: particle arrays, neighbour list, histories, buffers.
+  std::size_t memoryBytes() const;
+
+ private:
+  contact::ForceContext context();
+  contact::ForceContext context() const;
+  void rebuild();
+  void computeForces();
+  [[noreturn]] void fail(const std::string& what, const std::string& cause) const;
+  std::string dtHint() const;
+
+  ParticleStore particles_;
+  Box box_;
+  DemSettings settings_;
+  contact::ContactModel model_;
+  contact::ForceKernel kernel_;
+  contact::KernelFlags flags_;
+  TimeStepChoice timeStep_;
+  double dt_ = 0.0;
+  VerletList verlet_;
+  contact::ContactHistory pairHistory_, wallHistory_;
+  std::vector<std::uint64_t> pairKeys_, wallKeys_;
+  Eigen::Matrix3Xd velocityPredicted_, angularVelocityPredicted_;
+  bool predict_ = false;  ///< dashpots or viscous damping present: keep velocityPredicted_
+  bool conservative_ = false;
+  double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)
+  std::int64_t step_ = 0;
+  double initialEnergy_ = 0.0;
+  PhaseTimes times_;
+};
+
+/// Morton (Z-order) permutation of the centres on a 1024^3 grid over the box: order[k] = old slot.
+std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box);
+
+}  // namespace polydem::integrators

@@ -1,0 +1,56 @@
+#pragma once
+// Verlet neighbour list for the DEM loop: pairs with gap <= skin from any broad-phase backend, stored
+// CSR-style (contact::ContactList), plus particle-wall candidates. The caller rebuilds it when some
+// particle has moved more than skin / 2 since the last build (then no pair can have closed a gap of
+// `skin` unseen: each of the two moved at most skin / 2).
+//
+// The CSR rows are sorted (i, j) whatever order the backend reports, so the force loop sums in the
+// same order for every backend. Buffers only grow: steady-state rebuilds do not allocate (the
+// backend's own build may, depending on the backend).
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "broadphase/broad_phase.hpp"
+#include "contact/contact_list.hpp"
+#include "core/box.hpp"
+#include "core/particle_store.hpp"
+
+namespace polydem::integrators {
+
+class VerletList {
+ public:
+  /// `skin` in metres (>= 0; ConfigError otherwise).
+  VerletList(std::unique_ptr<broadphase::BroadPhase> backend, double skin);
+
+  /// Rebuild from the current spheres (centres inside the box: wrap periodic coordinates first).
+  /// O(N + P) plus the backend's build.
+  void build(const SphereView& spheres, const Box& box);
+
+  /// Fill history keys for the current list from the particles' stored ids (pairKey / wallKey).
+  void keys(std::span<const Index> ids, std::vector<std::uint64_t>& pairKeys,
+            std::vector<std::uint64_t>& wallKeys) const;
+
+  const contact::ContactList& list() const { return list_; }
+  /// Centres at the last build (3 x N).
+  const Eigen::Matrix3Xd& reference() const { return reference_; }
+  double skin() const { return skin_; }
+  std::int64_t builds() const { return builds_; }
+  const broadphase::BroadPhase& backend() const { return *backend_; }
+  std::size_t memoryBytes() const;
+  /// Invariants against the spheres of the last build: rows ascending with j > i, every pair within
+  /// the skin listed exactly once (brute-force check, O(N^2): tests only). Throws std::logic_error.
+  void validate(const SphereView& spheres, const Box& box) const;
+
+ private:
+  std::unique_ptr<broadphase::BroadPhase> backend_;
+  double skin_;
+  std::int64_t builds_ = 0;
+  contact::ContactList list_;
+  Eigen::Matrix3Xd reference_;
+  std::vector<broadphase::Pair> pairs_;
+  std::vector<Index> fill_;
+};
+
+}  // namespace polydem::integrators

@@ -1,0 +1,144 @@
+#include "contact/force_loop.hpp"
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "broadphase/registry.hpp"
+#include "tests/support/scene.hpp"
+
+namespace polydem::contact {
+namespace {
+
+/// Overlapping random spheres with random velocities and spins, and a brute-force contact list.
+struct Fixture {
+  test::Scene scene;
+  ParticleStore particles;
+  ContactList list;
+  ContactHistory pairHistory{3}, wallHistory{3};
+  Eigen::Matrix3Xd angularVelocity;
+
+  explicit Fixture(bool periodic) {
+    scene = test::makeScene({.count = 400, .distribution = "uniform-radius", .sizeRatio = 3.0, .packing = 0.4,
+                             .periodic = periodic, .seed = 5});
+    particles = ParticleStore(scene.spheres().count(), Features{.rotation = true});
+    particles.position() = scene.centre;
+    particles.radius() = scene.radius;
+    particles.setMassesFromDensity(2.0);
+    std::mt19937_64 rng(9);
+    std::normal_distribution<double> g(0.0, 1.0);
+    for (Index i = 0; i < particles.count(); ++i) {
+      for (int k = 0; k < 3; ++k) {
+        particles.velocity()(k, i) = g(rng);
+        particles.angularVelocity()(k, i) = g(rng);
+      }
+    }
+    const std::vector<broadphase::Pair> pairs = test::pairsFrom("brute", scene, 0.1);
+    list.offset.assign(static_cast<std::size_t>(particles.count()) + 1, 0);
+    for (const auto& p : pairs) ++list.offset[static_cast<std::size_t>(p.i) + 1];
+    for (Index i = 0; i < particles.count(); ++i) list.offset[i + 1] += list.offset[i];
+    for (const auto& p : pairs) list.neighbour.push_back(p.j);  // pairs are sorted by (i, j)
+    std::vector<std::uint64_t> keys;
+    for (const auto& p : pairs) keys.push_back(pairKey(p.i, p.j));
+    pairHistory.remap(keys);
+  }
+
+  ForceContext context() {
+    ForceContext c;
+    c.count = particles.count();
+    c.position = particles.position().data();
+    c.velocity = c.velocityHalf = particles.velocity().data();
+    c.radius = particles.radius().data();
+    c.inverseMass = particles.inverseMass().data();
+    c.force = particles.force().data();
+    c.angularVelocity = c.angularVelocityHalf = particles.angularVelocity().data();
+    c.inverseInertia = particles.inverseInertia().data();
+    c.torque = particles.torque().data();
+    c.list = &list;
+    c.pairHistory = &pairHistory;
+    c.wallHistory = &wallHistory;
+    for (int k = 0; k < 3; ++k) {
+      c.length[k] = scene.box.length(k);
+      c.halfLength[k] = scene.box.periodic(k) ? 0.5 * scene.box.length(k) : std::numeric_limits<double>::infinity();
+    }
+    c.dt = 1e-4;
+    return c;
+  }
+};
+
+ContactModel model(double friction, NormalModel normal = NormalModel::Linear) {
+  ContactParameters p;
+  p.normal = normal;
+  p.stiffness = 1e5;
+  p.restitution = 0.7;
+  p.friction = friction;
+  p.tangentialDampingRatio = 0.3;
+  return ContactModel(p);
+}
+
+TEST(ForceLoop, ForcesAndAngularMomentumBalance) {
+  for (NormalModel normal : {NormalModel::Linear, NormalModel::Hertz}) {
+    Fixture fx(false);  // walled box, but no wall flag: only pair forces, so they must cancel
+    const ContactModel m = model(0.5, normal);
+    const ForceKernel k = selectForceKernel(m, KernelFlags{});
+    ASSERT_TRUE(k.rotation);
+    for (int repeat = 0; repeat < 3; ++repeat) k.run(m, fx.context());  // let the springs load
+    EXPECT_GT(fx.pairHistory.activeCount(), 100u);
+    const Eigen::Vector3d total = fx.particles.force().rowwise().sum();
+    const double scale = fx.particles.force().cwiseAbs().sum();
+    EXPECT_LT(total.norm(), 1e-13 * scale);
+    // Lever arms r - overlap/2 sum to the centre distance: sum of torque + x cross F vanishes.
+    Eigen::Vector3d angular = Eigen::Vector3d::Zero();
+    for (Index i = 0; i < fx.particles.count(); ++i) {
+      const Eigen::Vector3d x = fx.particles.position().col(i);
+      angular += fx.particles.torque().col(i) + x.cross(Eigen::Vector3d(fx.particles.force().col(i)));
+    }
+    EXPECT_LT(angular.norm(), 1e-12 * scale * fx.scene.box.length(0));
+  }
+}
+
+TEST(ForceLoop, GeneralKernelComputesTheSameForcesWithoutFriction) {
+  Fixture a(true), b(true);
+  const ContactModel m = model(0.0);
+  const ForceKernel lean = selectForceKernel(m, KernelFlags{});
+  const ForceKernel general = selectForceKernel(m, KernelFlags{}, true);
+  EXPECT_FALSE(lean.rotation);
+  EXPECT_EQ(lean.historyWidth, 0);
+  EXPECT_TRUE(general.rotation);
+  lean.run(m, a.context());
+  general.run(m, b.context());
+  EXPECT_TRUE(a.particles.force() == b.particles.force()) << "bit-identical forces expected";
+  EXPECT_EQ(b.particles.torque().cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(ForceLoop, SeparatedContactsForgetTheirSpring) {
+  Fixture fx(true);
+  const ContactModel m = model(0.5);
+  const ForceKernel k = selectForceKernel(m, KernelFlags{});
+  k.run(m, fx.context());
+  const std::size_t active = fx.pairHistory.activeCount();
+  EXPECT_GT(active, 0u);
+  fx.particles.radius() *= 1e-4;  // every contact opens
+  k.run(m, fx.context());
+  EXPECT_EQ(fx.pairHistory.activeCount(), 0u);
+}
+
+TEST(ForceLoop, MeasureReportsTheLargestOverlap) {
+  Fixture fx(true);
+  const ContactModel m = model(0.0);
+  const ContactStats s = measureContacts(m, fx.context());
+  EXPECT_GT(s.contacts, 0u);
+  ASSERT_GE(s.maxOverlapI, 0);
+  ASSERT_GE(s.maxOverlapJ, 0);
+  const Index i = s.maxOverlapI, j = s.maxOverlapJ;
+  const double dist = fx.scene.box.minimumImage(fx.particles.position().col(i) - fx.particles.position().col(j)).norm();
+  const double ri = fx.particles.radius()[i], rj = fx.particles.radius()[j];
+  EXPECT_NEAR(s.maxOverlapRatio, (ri + rj - dist) / std::min(ri, rj), 1e-12);
+  EXPECT_GT(s.elasticEnergy, 0.0);
+}
+
+}  // namespace
+}  // namespace polydem::contact

@@ -1,0 +1,228 @@
+// Whole runs: energy and momentum of an elastic gas, identical trajectories for every broad-phase
+// backend, for any skin and with or without spatial reordering (contact history carried by id).
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "broadphase/registry.hpp"
+#include "core/errors.hpp"
+#include "integrators/dem_simulation.hpp"
+#include "integrators/initial_velocities.hpp"
+#include "integrators/soft_compression.hpp"
+#include "tests/integrators/dem_scenes.hpp"
+
+namespace polydem::integrators {
+namespace {
+
+using contact::ContactModel;
+using contact::ContactParameters;
+
+ContactParameters linear(double e, double mu = 0.0, double k = 1e4) {
+  ContactParameters cp;
+  cp.stiffness = k;
+  cp.restitution = e;
+  cp.friction = mu;
+  cp.tangentialDampingRatio = mu > 0.0 ? 0.5 : 0.0;
+  return cp;
+}
+
+std::vector<double> alternating(int count, double a, double b) {
+  std::vector<double> radii;
+  for (int i = 0; i < count; ++i) radii.push_back(i % 2 ? a : b);
+  return radii;
+}
+
+TEST(ElasticGas, EnergyDriftBelow1e4Over1e5StepsAndMomentumConserved) {
+  Box box;
+  ParticleStore p = test::latticeGas(alternating(27, 1.0, 1.5), 0.1, box, 3);
+  const ContactParameters cp = linear(1.0);
+  assignImpactVelocities(ContactModel(cp), p, 0.01, 11);
+  DemSettings settings;
+  settings.contact = cp;
+  settings.stability.checkInterval = 1000;
+  settings.stability.energyTolerance = 1e-4;
+  DemSimulation sim(std::move(p), box, settings);
+  ASSERT_TRUE(sim.conservative());
+  EXPECT_EQ(sim.kernel().name, "linear+frictionless [no walls, gravity or damping]");
+  double speedSum = 0.0;
+  for (Index i = 0; i < sim.particles().count(); ++i) {
+    speedSum += sim.particles().velocity().col(i).norm() / sim.particles().inverseMass()[i];
+  }
+  const Eigen::Vector3d p0 = sim.momentum();
+  sim.advance(100'000);
+  const double drift = std::abs(sim.energies().total() - sim.initialEnergy()) / sim.initialEnergy();
+  EXPECT_LT(drift, 1e-4);
+  EXPECT_LT((sim.momentum() - p0).norm(), 1e-13 * speedSum);
+  EXPECT_GT(sim.rebuilds(), 20) << "the gas should have moved and collided";
+}
+
+/// A frictional, damped scene with walls on z and gravity: every feature of the general kernel.
+DemSimulation frictionalScene(const std::string& backend, double skin, bool spatialSort) {
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 216; ++i) radii.push_back(1.0 + 0.5 * ((i * 37) % 101) / 100.0);  // 1..1.5
+  ParticleStore p = test::latticeGas(radii, 0.3, box, 5, true, {Boundary::Periodic, Boundary::Periodic, Boundary::Wall});
+  const ContactParameters cp = linear(0.6, 0.4);
+  assignImpactVelocities(ContactModel(cp), p, 0.05, 7);
+  for (Index i = 0; i < p.count(); ++i) p.velocity()(2, i) -= 1.0;  // towards the floor
+  DemSettings settings;
+  settings.contact = cp;
+  settings.broadPhase = backend;
+  settings.skin = skin;
+  settings.spatialSort = spatialSort;
+  settings.gravity = Eigen::Vector3d(0.0, 0.0, -20.0);
+  settings.viscousDamping = 0.01;
+  settings.stability.checkInterval = 50;
+  return DemSimulation(std::move(p), box, settings);
+}
+
+TEST(SameTrajectory, EveryCompleteBackendMatchesBruteForceBitForBit) {
+  DemSimulation reference = frictionalScene("brute", 0.2, true);
+  reference.advance(400);
+  const contact::ContactStats stats = reference.contactStats();
+  EXPECT_GT(stats.contacts, 20u);
+  EXPECT_GT(stats.wallContacts, 5u);
+  EXPECT_GT(reference.pairHistory().activeCount(), 0u);
+  for (const std::string& name : broadphase::backendNames()) {
+    if (!broadphase::makeBroadPhase(name)->capabilities().complete) continue;
+    SCOPED_TRACE(name);
+    DemSimulation sim = frictionalScene(name, 0.2, true);
+    sim.advance(400);
+    EXPECT_TRUE(sim.particles().position() == reference.particles().position());
+    EXPECT_TRUE(sim.particles().velocity() == reference.particles().velocity());
+    EXPECT_TRUE(sim.particles().angularVelocity() == reference.particles().angularVelocity());
+  }
+}
+
+TEST(SameTrajectory, SkinChangesRebuildsButNotTheTrajectory) {
+  // Forces are summed over the contacts of each canonical CSR row: candidates that are not in contact
+  // add nothing, so a thin skin (many rebuilds, history remapped each time) and a thick one (few) give
+  // bit-identical runs, which only holds if every frictional spring survives every rebuild.
+  DemSimulation thin = frictionalScene("linked-cell", 0.02, true);
+  DemSimulation thick = frictionalScene("linked-cell", 0.6, true);
+  thin.advance(400);
+  thick.advance(400);
+  EXPECT_GT(thin.rebuilds(), 3 * thick.rebuilds());
+  EXPECT_TRUE(thin.particles().position() == thick.particles().position());
+  EXPECT_TRUE(thin.particles().angularVelocity() == thick.particles().angularVelocity());
+}
+
+TEST(SameTrajectory, SpatialReorderingKeepsTheContactHistory) {
+  // Reordering changes the summation order (so agreement is to round-off, not bitwise) and puts the
+  // history keys out of list order (the binary-search remap path).
+  DemSimulation sorted = frictionalScene("linked-cell", 0.1, true);
+  DemSimulation unsorted = frictionalScene("linked-cell", 0.1, false);
+  sorted.advance(400);
+  unsorted.advance(400);
+  const Eigen::Matrix3Xd a = test::positionsById(sorted.particles());
+  const Eigen::Matrix3Xd b = test::positionsById(unsorted.particles());
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * sorted.box().length(0));
+  const Eigen::Matrix3Xd va = test::velocitiesById(sorted.particles());
+  const Eigen::Matrix3Xd vb = test::velocitiesById(unsorted.particles());
+  EXPECT_LT((va - vb).cwiseAbs().maxCoeff(), 1e-7 * va.cwiseAbs().maxCoeff());
+}
+
+TEST(SameTrajectory, GeneralKernelMatchesTheSpecialisedOneWithoutFriction) {
+  Box box;
+  ParticleStore p = test::latticeGas(alternating(125, 1.0, 2.0), 0.3, box, 2, true);
+  const ContactParameters cp = linear(0.8);
+  assignImpactVelocities(ContactModel(cp), p, 0.01, 3);
+  DemSettings settings;
+  settings.contact = cp;
+  DemSimulation lean(p, box, settings);
+  settings.generalKernel = true;
+  DemSimulation general(p, box, settings);
+  EXPECT_NE(lean.kernel().name, general.kernel().name);
+  lean.advance(300);
+  general.advance(300);
+  EXPECT_TRUE(lean.particles().position() == general.particles().position());
+  EXPECT_TRUE(lean.particles().velocity() == general.particles().velocity());
+}
+
+TEST(VerletList, CsrRowsAreCanonicalForEveryBackend) {
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 300; ++i) radii.push_back(1.0 + 3.0 * ((i * 13) % 17) / 16.0);
+  const ParticleStore p = test::latticeGas(radii, 0.3, box, 8);
+  for (const std::string& name : broadphase::backendNames()) {
+    if (!broadphase::makeBroadPhase(name)->capabilities().complete) continue;
+    SCOPED_TRACE(name);
+    VerletList list(broadphase::makeBroadPhase(name), 4.0);
+    list.build(p.spheres(), box);
+    EXPECT_NO_THROW(list.validate(p.spheres(), box));
+    EXPECT_GT(list.list().pairCount(), 100u);
+  }
+}
+
+TEST(VerletList, RebuildsWhenSomeParticleMovedHalfTheSkin) {
+  ParticleStore p(1, Features{});
+  p.radius() << 1.0;
+  p.position().col(0) << 5.0, 5.0, 5.0;
+  p.velocity().col(0) << 1.0, 0.0, 0.0;
+  DemSettings settings;
+  settings.contact = linear(1.0);
+  settings.skin = 0.45;
+  settings.timeStep = 0.01;
+  DemSimulation sim(std::move(p), Box::cubic(10.0, Boundary::Periodic), settings);
+  EXPECT_EQ(sim.rebuilds(), 1);
+  sim.advance(100);  // 1.0 travelled: rebuilds after 0.23, 0.46, 0.69, 0.92 (skin / 2 = 0.225)
+  EXPECT_EQ(sim.rebuilds(), 1 + 4);
+  sim.advance(1000);  // crosses the periodic boundary: wrapped at rebuilds, never far outside
+  const double x = sim.particles().position()(0, 0);
+  EXPECT_GE(x, 0.0);
+  EXPECT_LT(x, 10.0 + 0.225);
+}
+
+}  // namespace
+}  // namespace polydem::integrators
+
+namespace polydem::integrators {
+namespace {
+
+TEST(SoftCompression, ReachesTheTargetWithSmallOverlapsAndKeepsTheSizeShape) {
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 300; ++i) radii.push_back(1.0 + (i % 3) * 0.5);  // 1, 1.5, 2
+  ParticleStore p = test::latticeGas(radii, 0.3, box, 12);
+  const double ratioBefore = p.radius().maxCoeff() / p.radius().minCoeff();
+  DemSettings settings;
+  settings.contact.stiffness = 1e4;
+  settings.contact.restitution = 0.5;
+  CompressionSettings c;
+  c.targetPacking = 0.55;
+  c.growthRate = 1e-2;
+  c.relaxedOverlap = 0.02;
+  const CompressionResult r = softCompress(p, box, settings, c);
+  EXPECT_NEAR(r.packingFraction, 0.55, 1e-9);
+  EXPECT_LT(r.maxOverlapRatio, 0.02);
+  EXPECT_NEAR(p.radius().maxCoeff() / p.radius().minCoeff(), ratioBefore, 1e-12);
+  EXPECT_EQ(p.velocity().cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT(r.growthSteps, 0);
+  // The compressed state starts a run without complaint.
+  settings.stability.checkInterval = 10;
+  DemSimulation sim(p, box, settings);
+  EXPECT_NO_THROW(sim.advance(200));
+}
+
+TEST(SoftCompression, TargetAboveJammingIsReported) {
+  Box box;
+  ParticleStore p = test::latticeGas(std::vector<double>(64, 1.0), 0.3, box, 12);
+  DemSettings settings;
+  settings.contact.stiffness = 1e4;
+  settings.contact.restitution = 0.5;
+  CompressionSettings c;
+  c.targetPacking = 0.8;  // far above random close packing of spheres
+  c.growthRate = 2e-2;
+  c.maxSteps = 20'000;
+  settings.stability.maxOverlapFraction = 10.0;
+  try {
+    softCompress(p, box, settings, c);
+    FAIL();
+  } catch (const SimulationError& e) {
+    EXPECT_NE(std::string(e.what()).find("above jamming"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace polydem::integrators
