@@ -74,9 +74,6 @@ namespace {
 
 constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
 constexpr std::uint64_t kGolden = 0x9E3779B97F4A7C15ULL;  // Fibonacci hashing
-// A hashed level gets an occupancy bitmap (one bit per cell) while it has at most this many cells per
-// sphere (<= 32 bytes per sphere), so that scanning empty cells costs a bit test instead of a probe.
-constexpr double kBitmapCellsPerSphere = 256.0;
 
 inline void emit(std::vector<Pair>& out, Index a, Index b) { out.push_back(a < b ? Pair{a, b} : Pair{b, a}); }
 
@@ -144,6 +141,8 @@ void HGrid<kMode>::resolveConfig(const SphereView& spheres) {
                                     "2 r_max + skin = {}: add a level of at least that size",
                                     config_.cellSizes.back(), top));
     }
+  } else if (!any) {
+    config_ = HGridConfig{{box_.lengths().maxCoeff()}, kMode, "default (no spheres)"};  // nothing to optimise
   } else if (configurator_) {
     config_ = configurator_(spheres, box_, skin_, kMode);
     hgrid::validateCellSizes(config_.cellSizes, "configurator");
@@ -154,10 +153,12 @@ void HGrid<kMode>::resolveConfig(const SphereView& spheres) {
                           config_.cellSizes.back());
       config_.cellSizes.push_back(top);
     }
-  } else if (any) {
-    config_ = hgrid::defaultConfig(minRadius_, maxRadius_, skin_, kMode);
   } else {
-    config_ = HGridConfig{{box_.lengths().maxCoeff()}, kMode, "default (no spheres)"};
+    // hgrid::defaultConfig() filled in place, so that steady-state rebuilds do not allocate.
+    config_.cellSizes.clear();
+    for (double s = 2.0 * minRadius_ + skin_; s < top; s *= 2.0) config_.cellSizes.push_back(s);
+    config_.cellSizes.push_back(top);
+    config_.origin = "default: doubling from 2 r_min + skin to 2 r_max + skin";
   }
   config_.mode = kMode;
 }
@@ -257,12 +258,13 @@ void HGrid<kMode>::index(const SphereView& spheres) {
   cellStart_.clear();
   table_.clear();
   bitmap_.clear();
+  rank_.clear();
   cells_.clear();
 
   for (std::size_t h = 0; h < levelCount; ++h) {
     Level& lv = levels_[h];
     lv.dense = false;
-    lv.bitmap = false;
+    lv.ranked = false;
     lv.cellBegin = lv.cellEnd = cells_.size();
     lv.overflowSpheres = 0;
     if (lv.overflowUsed > 0) {
@@ -334,9 +336,31 @@ void HGrid<kMode>::index(const SphereView& spheres) {
       }
     }
     lv.cellEnd = cells_.size();
-    if (!lv.dense) {
+    if (lv.dense) continue;
+    const std::size_t occupiedCells = lv.cellEnd - lv.cellBegin;
+    // Too sparse for a dense cell-start array but not too sparse: a "ranked" level. Look-ups stay
+    // spatially coherent (unlike hashing), and empty cells cost a bit test.
+    lv.ranked = rankedCellLimit_ > 0.0 && static_cast<double>(cellCount) <= rankedCellLimit_ * count + 4096.0;
+    if (lv.ranked) {
+      // Occupancy bitmap plus the number of occupied cells before each 64-cell word: the occupied cells
+      // are sorted by key, so rank(key) indexes cells_ and the slots of a run of keys are contiguous.
+      // One extra word makes rank(cell count) valid.
+      const std::size_t words = static_cast<std::size_t>(cellCount / 64) + 1;
+      lv.bitmapOffset = bitmap_.size();
+      bitmap_.resize(lv.bitmapOffset + words, 0);
+      rank_.resize(lv.bitmapOffset + words, 0);
+      std::uint64_t* bits = bitmap_.data() + lv.bitmapOffset;
+      std::uint32_t* rank = rank_.data() + lv.bitmapOffset;
+      for (std::size_t c = lv.cellBegin; c < lv.cellEnd; ++c) {
+        bits[cells_[c].key >> 6] |= std::uint64_t{1} << (cells_[c].key & 63);
+      }
+      std::uint32_t running = 0;
+      for (std::size_t w = 0; w < words; ++w) {
+        rank[w] = running;
+        running += static_cast<std::uint32_t>(std::popcount(bits[w]));
+      }
+    } else {
       // Open addressing with linear probing, load <= 1/2; entries verify the full key.
-      const std::size_t occupiedCells = lv.cellEnd - lv.cellBegin;
       const std::size_t capacity = std::bit_ceil(std::max<std::size_t>(16, 2 * occupiedCells));
       lv.tableOffset = table_.size();
       lv.tableMask = capacity - 1;
@@ -348,13 +372,6 @@ void HGrid<kMode>::index(const SphereView& spheres) {
         while (table[at].key != kEmptyKey) at = (at + 1) & lv.tableMask;
         table[at] = {cells_[c].key, cells_[c].begin, cells_[c].end};
       }
-      lv.bitmap = static_cast<double>(cellCount) <= kBitmapCellsPerSphere * count + 4096.0;
-      if (lv.bitmap) {
-        lv.bitmapOffset = bitmap_.size();
-        bitmap_.resize(lv.bitmapOffset + (cellCount + 63) / 64, 0);
-        std::uint64_t* bits = bitmap_.data() + lv.bitmapOffset;
-        for (std::size_t c = lv.cellBegin; c < lv.cellEnd; ++c) bits[cells_[c].key >> 6] |= std::uint64_t{1} << (cells_[c].key & 63);
-      }
     }
   }
   levelCounters_.assign(levelCount, Counters{});
@@ -364,12 +381,29 @@ void HGrid<kMode>::index(const SphereView& spheres) {
 // Look-ups
 
 template <CrossLevel kMode>
-inline typename HGrid<kMode>::SlotRange HGrid<kMode>::rangeOf(const Level& lv, std::uint64_t key) const {
+[[gnu::always_inline]] inline Index HGrid<kMode>::startOf(const Level& lv, std::uint64_t key) const {
+  // First slot of the first occupied cell with a key >= `key` (dense and ranked levels), key <= cells.
+  if (lv.dense) return cellStart_[lv.denseOffset + key];
+  const std::size_t w = lv.bitmapOffset + (key >> 6);
+  const std::uint64_t below = bitmap_[w] & ((std::uint64_t{1} << (key & 63)) - 1);
+  const std::size_t r = lv.cellBegin + rank_[w] + static_cast<std::size_t>(std::popcount(below));
+  return r < lv.cellEnd ? cells_[r].begin : lv.end;
+}
+
+template <CrossLevel kMode>
+[[gnu::always_inline]] inline typename HGrid<kMode>::SlotRange HGrid<kMode>::rangeOf(const Level& lv, std::uint64_t key) const {
   if (lv.dense) {
     const Index* cs = cellStart_.data() + lv.denseOffset + key;
     return {cs[0], cs[1]};
   }
-  if (lv.bitmap && !((bitmap_[lv.bitmapOffset + (key >> 6)] >> (key & 63)) & 1)) return {0, 0};
+  if (lv.ranked) {
+    const std::size_t w = lv.bitmapOffset + (key >> 6);
+    const std::uint64_t word = bitmap_[w];
+    if (!((word >> (key & 63)) & 1)) return {0, 0};
+    const std::uint64_t below = word & ((std::uint64_t{1} << (key & 63)) - 1);
+    const OccupiedCell& cell = cells_[lv.cellBegin + rank_[w] + static_cast<std::size_t>(std::popcount(below))];
+    return {cell.begin, cell.end};
+  }
   // Linear probing; the full key is compared, so an empty cell never returns a colliding cell's spheres.
   const HashEntry* table = table_.data() + lv.tableOffset;
   for (std::uint64_t at = (key * kGolden) >> lv.tableShift;; at = (at + 1) & lv.tableMask) {
@@ -380,72 +414,72 @@ inline typename HGrid<kMode>::SlotRange HGrid<kMode>::rangeOf(const Level& lv, s
 }
 
 template <CrossLevel kMode>
-template <class Visit>
-std::uint64_t HGrid<kMode>::forEachBoxRange(const Level& lv, const double* x, double beta, Visit&& visit) const {
-  std::int64_t lo[3], hi[3];
-  bool wrap[3];
+typename HGrid<kMode>::BoxCells HGrid<kMode>::boxOn(const Level& lv, const double* x, double beta) const {
+  BoxCells b;
   for (int k = 0; k < 3; ++k) {
-    lo[k] = static_cast<std::int64_t>(std::floor((x[k] - beta) * lv.inv[k] - hgrid::kBoxMargin));
-    hi[k] = static_cast<std::int64_t>(std::floor((x[k] + beta) * lv.inv[k] + hgrid::kBoxMargin));
+    b.lo[k] = static_cast<std::int64_t>(std::floor((x[k] - beta) * lv.inv[k] - hgrid::kBoxMargin));
+    b.hi[k] = static_cast<std::int64_t>(std::floor((x[k] + beta) * lv.inv[k] + hgrid::kBoxMargin));
     const std::int64_t n = lv.n[k];
     if (periodic_[k]) {
-      if (hi[k] - lo[k] + 1 >= n) {  // the box spans the axis: each cell once
-        lo[k] = 0;
-        hi[k] = n - 1;
+      if (b.hi[k] - b.lo[k] + 1 >= n) {  // the box spans the axis: each cell once
+        b.lo[k] = 0;
+        b.hi[k] = n - 1;
       }
-      wrap[k] = lo[k] < 0 || hi[k] >= n;
+      // Otherwise the span is below n, so -n < lo and hi < 2n: one add or subtract wraps an index.
+      b.wrap[k] = b.lo[k] < 0 || b.hi[k] >= n;
     } else {
-      lo[k] = std::max<std::int64_t>(lo[k], 0);
-      hi[k] = std::min<std::int64_t>(hi[k], n - 1);
-      wrap[k] = false;
+      b.lo[k] = std::max<std::int64_t>(b.lo[k], 0);
+      b.hi[k] = std::min<std::int64_t>(b.hi[k], n - 1);
+      b.wrap[k] = false;
     }
   }
+  b.rows = static_cast<std::uint64_t>(b.hi[1] - b.lo[1] + 1) * static_cast<std::uint64_t>(b.hi[2] - b.lo[2] + 1);
+  b.cells = b.rows * static_cast<std::uint64_t>(b.hi[0] - b.lo[0] + 1);
+  return b;
+}
+
+template <CrossLevel kMode>
+bool HGrid<kMode>::inBox(const BoxCells& b, const Level& lv, const std::int32_t* c) {
+  for (int k = 0; k < 3; ++k) {
+    std::int64_t d = c[k] - b.lo[k];
+    if (b.wrap[k]) {
+      const std::int64_t n = lv.n[k];
+      d = d < 0 ? d + n : (d >= n ? d - n : d);
+    }
+    if (d < 0 || d > b.hi[k] - b.lo[k]) return false;
+  }
+  return true;
+}
+
+template <CrossLevel kMode>
+template <class Visit>
+std::uint64_t HGrid<kMode>::forEachBoxRange(const Level& lv, const double* x, double beta, Visit&& visit) const {
+  const BoxCells box = boxOn(lv, x, beta);
+  const std::int64_t* lo = box.lo;
+  const std::int64_t* hi = box.hi;
+  const bool* wrap = box.wrap;
   const std::int64_t n0 = lv.n[0], n1 = lv.n[1], n2 = lv.n[2];
-  const std::uint64_t rows = static_cast<std::uint64_t>(hi[1] - lo[1] + 1) * static_cast<std::uint64_t>(hi[2] - lo[2] + 1);
-  const std::uint64_t cells = rows * static_cast<std::uint64_t>(hi[0] - lo[0] + 1);
+  const std::uint64_t cells = box.cells;
 
   // Sparse level (a Top-Down scan of a fine level holding few spheres): testing each occupied cell
   // against the box is cheaper than walking the box. Same cells, same candidates, same counts.
   const std::uint64_t occupiedCells = lv.cellEnd - lv.cellBegin;
-  const std::uint64_t walkCost = lv.dense || lv.bitmap ? 2 * rows + cells / 16 : 4 * cells;
+  const std::uint64_t walkCost = lv.dense || lv.ranked ? 2 * box.rows + cells / 16 : 4 * cells;
   if (occupiedCells < walkCost) {
-    auto inside = [&](int k, std::int64_t c) {
-      std::int64_t d = c - lo[k];
-      if (wrap[k]) {
-        const std::int64_t n = lv.n[k];
-        d = d < 0 ? d + n : (d >= n ? d - n : d);
-      }
-      return d >= 0 && d <= hi[k] - lo[k];
-    };
     for (std::size_t c = lv.cellBegin; c < lv.cellEnd; ++c) {
       const OccupiedCell& cell = cells_[c];
-      if (inside(0, cell.c[0]) && inside(1, cell.c[1]) && inside(2, cell.c[2])) visit(cell.begin, cell.end);
+      if (inBox(box, lv, cell.c)) visit(cell.begin, cell.end);
     }
     return cells;
   }
 
   auto wrapped = [](std::int64_t c, std::int64_t n) { return c < 0 ? c + n : (c >= n ? c - n : c); };
-  // Slot ranges of the occupied cells with keys in [k0, k1] (one x-run of a row), hashed levels.
-  const std::uint64_t* bits = lv.bitmap ? bitmap_.data() + lv.bitmapOffset : nullptr;
-  auto hashedRun = [&](std::uint64_t k0, std::uint64_t k1) {
-    if (bits) {
-      for (std::uint64_t w = k0 >> 6; w <= (k1 >> 6); ++w) {
-        std::uint64_t word = bits[w];
-        if (w == (k0 >> 6)) word &= ~std::uint64_t{0} << (k0 & 63);
-        if (w == (k1 >> 6) && (k1 & 63) != 63) word &= (std::uint64_t{1} << ((k1 & 63) + 1)) - 1;
-        while (word) {
-          const std::uint64_t key = (w << 6) + static_cast<std::uint64_t>(std::countr_zero(word));
-          word &= word - 1;
-          const auto [b, e] = rangeOf(lv, key);
-          visit(b, e);
-        }
-      }
-    } else {
-      for (std::uint64_t key = k0; key <= k1; ++key) {
-        const auto [b, e] = rangeOf(lv, key);
-        if (b < e) visit(b, e);
-      }
-    }
+  constexpr int kPending = 32;
+  Index pending[kPending][2];
+  int pendingCount = 0;
+  auto flush = [&] {
+    for (int r = 0; r < pendingCount; ++r) visit(pending[r][0], pending[r][1]);
+    pendingCount = 0;
   };
   for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
     const std::int64_t zz = wrap[2] ? wrapped(z, n2) : z;
@@ -474,17 +508,27 @@ std::uint64_t HGrid<kMode>::forEachBoxRange(const Level& lv, const double* x, do
       for (int r = 0; r < runCount; ++r) {
         const std::uint64_t k0 = row + static_cast<std::uint64_t>(runs[r][0]);
         const std::uint64_t k1 = row + static_cast<std::uint64_t>(runs[r][1]);
-        if (lv.dense) {
-          // A run of cells along x is a contiguous run of slots.
-          const Index* cs = cellStart_.data() + lv.denseOffset;
-          const Index b = cs[k0], e = cs[k1 + 1];
-          if (b < e) visit(b, e);
+        if (lv.dense || lv.ranked) {
+          // Cells are sorted by key, so a run of cells along x is a contiguous run of slots. The
+          // slot ranges are gathered first and their spheres prefetched: the look-ups of different
+          // rows are independent, so their cache misses overlap instead of queueing behind the tests.
+          const Index b = startOf(lv, k0), e = startOf(lv, k1 + 1);
+          if (b < e) {
+            __builtin_prefetch(packed_.data() + 4 * static_cast<std::size_t>(b));
+            pending[pendingCount][0] = b;
+            pending[pendingCount][1] = e;
+            if (++pendingCount == kPending) flush();
+          }
         } else {
-          hashedRun(k0, k1);
+          for (std::uint64_t key = k0; key <= k1; ++key) {
+            const auto [b, e] = rangeOf(lv, key);
+            if (b < e) visit(b, e);
+          }
         }
       }
     }
   }
+  flush();
   return cells;
 }
 
@@ -537,25 +581,22 @@ template <CrossLevel kMode>
 template <class Visit>
 void HGrid<kMode>::forEachOverflowInBox(const Level& lv, const double* x, double beta, Visit&& visit) const {
   if (lv.overflowSpheres == 0) return;
-  std::int64_t lo[3], hi[3];
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = static_cast<std::int64_t>(std::floor((x[k] - beta) * lv.inv[k] - hgrid::kBoxMargin));
-    hi[k] = static_cast<std::int64_t>(std::floor((x[k] + beta) * lv.inv[k] + hgrid::kBoxMargin));
-    const std::int64_t n = lv.n[k];
-    if (periodic_[k]) {
-      if (hi[k] - lo[k] + 1 >= n) {
-        lo[k] = 0;
-        hi[k] = n - 1;
-      }
-    } else {
-      lo[k] = std::max<std::int64_t>(lo[k], 0);
-      hi[k] = std::min<std::int64_t>(hi[k], n - 1);
+  const BoxCells box = boxOn(lv, x, beta);
+  if (box.cells > 4 * lv.overflowSpheres) {
+    // Few overflow spheres on this level: test each against the box rather than probing every cell.
+    for (const OverflowRecord& rec : overflow_) {
+      if (&levels_[level_[static_cast<std::size_t>(rec.sphere)]] != &lv) continue;
+      const std::int32_t c[3] = {static_cast<std::int32_t>(rec.key % lv.nx),
+                                 static_cast<std::int32_t>((rec.key / lv.nx) % static_cast<std::uint64_t>(lv.n[1])),
+                                 static_cast<std::int32_t>(rec.key / lv.nxy)};
+      if (inBox(box, lv, c)) visit(rec.sphere, rec.xyzr);
     }
+    return;
   }
   auto wrapped = [](std::int64_t c, std::int64_t n) { return c < 0 ? c + n : (c >= n ? c - n : c); };
-  for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-    for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
-      for (std::int64_t xc = lo[0]; xc <= hi[0]; ++xc) {
+  for (std::int64_t z = box.lo[2]; z <= box.hi[2]; ++z) {
+    for (std::int64_t y = box.lo[1]; y <= box.hi[1]; ++y) {
+      for (std::int64_t xc = box.lo[0]; xc <= box.hi[0]; ++xc) {
         const std::uint64_t key = static_cast<std::uint64_t>(wrapped(xc, lv.n[0])) +
                                   lv.nx * static_cast<std::uint64_t>(wrapped(y, lv.n[1])) +
                                   lv.nxy * static_cast<std::uint64_t>(wrapped(z, lv.n[2]));
@@ -684,7 +725,7 @@ void HGrid<kMode>::sameLevel(int h, std::vector<Pair>& out) const {
 }
 
 template <CrossLevel kMode>
-template <bool kCount>
+template <bool kCount, bool kAabb>
 void HGrid<kMode>::crossLevel(int h, int j, std::vector<Pair>& out) const {
   const Level& from = levels_[static_cast<std::size_t>(h)];
   const Level& to = levels_[static_cast<std::size_t>(j)];
@@ -702,22 +743,25 @@ void HGrid<kMode>::crossLevel(int h, int j, std::vector<Pair>& out) const {
       if constexpr (kCount) tests += static_cast<std::uint64_t>(b1 - b0);
       for (Index t = b0; t < b1; ++t) {
         const double* pt = p + 4 * t;
-        // AABB pre-check (seed :1046-1054), made conservative by 1e-12 so that it never rejects a pair
-        // the exact test accepts; tombstones (NaN) fall through to the exact test, which rejects them.
-        const double reach = ((rp + pt[3]) + skin) * (1.0 + 1e-12);
-        bool apart = false;
-        for (int k = 0; k < 3; ++k) {
-          double d = ps[k] - pt[k];
-          if (periodic_[k]) {
-            if (d > halfLength_[k]) {
-              d -= length_[k];
-            } else if (d < -halfLength_[k]) {
-              d += length_[k];
+        if constexpr (kAabb) {
+          // AABB pre-check (seed :1046-1054), made conservative by 1e-12 so that it never rejects a
+          // pair the exact test accepts; tombstones (NaN) fall through to the exact test, which rejects
+          // them.
+          const double reach = ((rp + pt[3]) + skin) * (1.0 + 1e-12);
+          bool apart = false;
+          for (int k = 0; k < 3; ++k) {
+            double d = ps[k] - pt[k];
+            if (periodic_[k]) {
+              if (d > halfLength_[k]) {
+                d -= length_[k];
+              } else if (d < -halfLength_[k]) {
+                d += length_[k];
+              }
             }
+            apart |= std::abs(d) > reach;
           }
-          apart |= std::abs(d) > reach;
+          if (apart) continue;
         }
-        if (apart) continue;
         if (spheresWithinReach(box_, ps, rp, pt, pt[3], skin)) emit(out, ip, sorted[t]);
       }
     });
@@ -772,7 +816,12 @@ void HGrid<kMode>::pairsImpl(std::vector<Pair>& out) const {
   for (int h : occupied_) {
     for (int j : occupied_) {
       const bool searched = kMode == CrossLevel::TopDown ? j < h : j > h;
-      if (searched) crossLevel<kCount>(h, j, out);
+      if (!searched) continue;
+      if (aabbPrecheck_) {
+        crossLevel<kCount, true>(h, j, out);
+      } else {
+        crossLevel<kCount, false>(h, j, out);
+      }
     }
   }
   if (!overflow_.empty()) overflowPairs<kCount>(out);
@@ -921,7 +970,7 @@ typename HGrid<kMode>::LevelInfo HGrid<kMode>::levelInfo(int h) const {
   info.cells = lv.n;
   info.spheres = lv.end - lv.begin;
   info.occupiedCells = static_cast<Index>(lv.cellEnd - lv.cellBegin);
-  info.dense = lv.dense;
+  info.storage = lv.end == lv.begin ? '-' : (lv.dense ? 'd' : (lv.ranked ? 'r' : 'h'));
   return info;
 }
 
@@ -929,7 +978,7 @@ template <CrossLevel kMode>
 std::size_t HGrid<kMode>::memoryBytes() const {
   std::size_t bytes = levels_.capacity() * sizeof(Level) + occupied_.capacity() * sizeof(int) +
                       cellStart_.capacity() * sizeof(Index) + table_.capacity() * sizeof(HashEntry) +
-                      bitmap_.capacity() * sizeof(std::uint64_t) +
+                      bitmap_.capacity() * sizeof(std::uint64_t) + rank_.capacity() * sizeof(std::uint32_t) +
                       cells_.capacity() * sizeof(OccupiedCell) + sorted_.capacity() * sizeof(Index) +
                       packed_.capacity() * sizeof(double) + slotOf_.capacity() * sizeof(Index) +
                       level_.capacity() * sizeof(std::uint16_t) + homeKey_.capacity() * sizeof(std::uint64_t) +
@@ -957,9 +1006,9 @@ std::string HGrid<kMode>::describe() const {
       snapped += fmt::format("{}{:.6g}x{:.6g}x{:.6g}", sep, lv.size[0], lv.size[1], lv.size[2]);
     }
     occupancy += fmt::format("{}{}{}", sep, lv.end - lv.begin,
-                             lv.end == lv.begin ? "" : (lv.dense ? "d" : (lv.bitmap ? "b" : "h")));
+                             lv.end == lv.begin ? "" : (lv.dense ? "d" : (lv.ranked ? "r" : "h")));
   }
-  std::string text = fmt::format("{} L={} sizes {} (snapped {}); spheres per level {} (d = dense, b = hashed with bitmap, h = hashed); {}",
+  std::string text = fmt::format("{} L={} sizes {} (snapped {}); spheres per level {} (d = dense, r = ranked bitmap, h = hashed); {}",
                                  name(), levels_.size(), nominal, snapped, occupancy, config_.origin);
   if (!note_.empty()) text += "; " + note_;
   if (!overflow_.empty()) text += fmt::format("; {} spheres in the overflow", overflow_.size());
@@ -1031,17 +1080,19 @@ void HGrid<kMode>::validate(const SphereView& spheres) const {
       ++hashed;
     }
     if (expected != lv.end && lv.cellEnd > lv.cellBegin) fail(fmt::format("level {}: cells miss slots", h + 1));
-    if (!lv.dense && lv.end > lv.begin) {
+    if (lv.ranked) {
+      const std::uint64_t words = lv.nxy * static_cast<std::uint64_t>(lv.n[2]) / 64 + 1;
+      std::size_t set = 0;
+      for (std::uint64_t w = 0; w < words; ++w) {
+        if (rank_[lv.bitmapOffset + w] != set) fail(fmt::format("level {}: rank directory is wrong", h + 1));
+        set += static_cast<std::size_t>(std::popcount(bitmap_[lv.bitmapOffset + w]));
+      }
+      if (set != hashed) fail(fmt::format("level {}: bitmap holds {} cells, expected {}", h + 1, set, hashed));
+    } else if (!lv.dense && lv.end > lv.begin) {
       std::size_t entries = 0;
       const std::size_t capacity = lv.tableMask + 1;
       for (std::size_t t = 0; t < capacity; ++t) entries += table_[lv.tableOffset + t].key != kEmptyKey;
       if (entries != hashed) fail(fmt::format("level {}: hash table holds {} cells, expected {}", h + 1, entries, hashed));
-      if (lv.bitmap) {
-        const std::uint64_t words = (lv.nxy * static_cast<std::uint64_t>(lv.n[2]) + 63) / 64;
-        std::size_t set = 0;
-        for (std::uint64_t w = 0; w < words; ++w) set += static_cast<std::size_t>(std::popcount(bitmap_[lv.bitmapOffset + w]));
-        if (set != hashed) fail(fmt::format("level {}: bitmap holds {} cells, expected {}", h + 1, set, hashed));
-      }
     }
   }
   if (overflowTotal != overflow_.size()) fail("overflow counts per level do not add up");

@@ -36,8 +36,8 @@ std::vector<Pair> gridPairs(Grid& grid, const test::Scene& s, double skin) {
 
 HGridConfig sizes(std::vector<double> s) { return HGridConfig{std::move(s), CrossLevel::TopDown, "test"}; }
 
-// Dense cell-start arrays, hash tables, and the default mix.
-constexpr double kDenseLimits[] = {0.0, 2.0, 1000.0};
+// Storage limits {dense, ranked}: hash tables only, ranked bitmaps only, dense where affordable, default.
+constexpr std::array<std::array<double, 2>, 4> kStorage = {{{0.0, 0.0}, {0.0, 1000.0}, {1000.0, 0.0}, {8.0, 256.0}}};
 
 // ---------------------------------------------------------------------------------------------------
 // Worked example of seed 000 Fig. 2.1/2.7 (digest §1.8): s = (3, 8), B at (10.3, 14.4) with r = 4,
@@ -153,18 +153,22 @@ TEST(HGridAgreement, UniformVolumeHandSetSizesMatchBruteForce) {
         ASSERT_GT(expected.size(), 0u);
         std::vector<double> s = c.cellSizes;
         for (double& v : s) v += skin;
-        for (double dense : kDenseLimits) {
+        for (const auto& storage : kStorage) {
           SCOPED_TRACE(::testing::Message() << "omega " << c.omega << (c.periodic ? " periodic" : " walled") << " L "
                                             << s.size() << " top " << s.back() << " seed " << seed << " skin " << skin
-                                            << " dense limit " << dense);
+                                            << " storage " << storage[0] << "/" << storage[1]);
           HGridTopDown td;
           td.setConfig(sizes(s));
-          td.setDenseCellLimit(dense);
+          td.setStorageLimits(storage[0], storage[1]);
           EXPECT_EQ(gridPairs(td, scene, skin), expected) << td.describe();
           HGridBottomUp bu;
           bu.setConfig(sizes(s));
-          bu.setDenseCellLimit(dense);
+          bu.setStorageLimits(storage[0], storage[1]);
           EXPECT_EQ(gridPairs(bu, scene, skin), expected) << bu.describe();
+          td.setAabbPrecheck(false);
+          bu.setAabbPrecheck(false);
+          EXPECT_EQ(gridPairs(td, scene, skin), expected);
+          EXPECT_EQ(gridPairs(bu, scene, skin), expected);
         }
       }
     }
@@ -201,15 +205,15 @@ TEST(HGridAgreement, CoarseLevelsAndThinBoxes) {
     }
     for (double skin : {0.0, 0.1}) {
       const auto expected = bruteForcePairs(s, skin);
-      for (double dense : kDenseLimits) {
-        SCOPED_TRACE(::testing::Message() << s.box.describe() << " skin " << skin << " dense " << dense);
+      for (const auto& storage : kStorage) {
+        SCOPED_TRACE(::testing::Message() << s.box.describe() << " skin " << skin << " storage " << storage[0] << "/" << storage[1]);
         HGridTopDown td;
         td.setConfig(sizes(c.cellSizes));
-        td.setDenseCellLimit(dense);
+        td.setStorageLimits(storage[0], storage[1]);
         EXPECT_EQ(gridPairs(td, s, skin), expected) << td.describe();
         HGridBottomUp bu;
         bu.setConfig(sizes(c.cellSizes));
-        bu.setDenseCellLimit(dense);
+        bu.setStorageLimits(storage[0], storage[1]);
         EXPECT_EQ(gridPairs(bu, s, skin), expected) << bu.describe();
       }
     }
@@ -242,12 +246,12 @@ TEST(HGridAgreement, CentresOnCellFacesOfEveryLevel) {
     for (double skin : {0.0, 0.25, 0.5}) {
       const auto expected = bruteForcePairs(s, skin);
       ASSERT_GT(expected.size(), 0u);
-      for (double dense : kDenseLimits) {
-        SCOPED_TRACE(::testing::Message() << (periodic ? "periodic" : "walled") << " skin " << skin << " dense "
-                                          << dense);
+      for (const auto& storage : kStorage) {
+        SCOPED_TRACE(::testing::Message() << (periodic ? "periodic" : "walled") << " skin " << skin << " storage "
+                                          << storage[0] << "/" << storage[1]);
         HGridTopDown td;
         td.setConfig(sizes(nominal));
-        td.setDenseCellLimit(dense);
+        td.setStorageLimits(storage[0], storage[1]);
         EXPECT_EQ(gridPairs(td, s, skin), expected);
         const double snapped[] = {1.0, 1.5, 2.0, 3.0, 4.0};
         for (int h = 1; h <= td.levelCount(); ++h) {
@@ -255,7 +259,12 @@ TEST(HGridAgreement, CentresOnCellFacesOfEveryLevel) {
         }
         HGridBottomUp bu;
         bu.setConfig(sizes(nominal));
-        bu.setDenseCellLimit(dense);
+        bu.setStorageLimits(storage[0], storage[1]);
+        EXPECT_EQ(gridPairs(bu, s, skin), expected);
+        // Exact touching on faces is where a careless AABB pre-check would drop pairs.
+        td.setAabbPrecheck(false);
+        bu.setAabbPrecheck(false);
+        EXPECT_EQ(gridPairs(td, s, skin), expected);
         EXPECT_EQ(gridPairs(bu, s, skin), expected);
       }
     }
@@ -294,6 +303,14 @@ TEST(HGridConfiguration, DefaultSizesDoubleUpToTheLargestInteractionDiameter) {
   EXPECT_EQ(td.config().cellSizes, std::vector<double>{2.2});
   EXPECT_EQ(td.config().mode, CrossLevel::TopDown);
   EXPECT_NE(td.describe().find("hgrid-td L=1 sizes 2.2 (snapped"), std::string::npos) << td.describe();
+
+  const test::Scene wide = test::makeScene(
+      {.count = 2000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 2});
+  HGridBottomUp bu;
+  bu.build(wide.spheres(), wide.box, 0.2);
+  EXPECT_EQ(bu.config().cellSizes,
+            hgrid::defaultConfig(wide.radius.minCoeff(), wide.radius.maxCoeff(), 0.2, CrossLevel::BottomUp).cellSizes);
+  EXPECT_EQ(bu.levelCount(), static_cast<int>(bu.config().cellSizes.size()));
 }
 
 TEST(HGridConfiguration, ExplicitSizesAreValidated) {
@@ -366,6 +383,14 @@ TEST(HGridConfiguration, ConfiguratorIsCalledWhenNoExplicitSizes) {
   EXPECT_EQ(calls, 1);
   bu.clearConfig();
   EXPECT_EQ(gridPairs(bu, scene, skin), expected);
+  EXPECT_EQ(calls, 2);
+
+  // No spheres: nothing to configure, the configurator is not asked.
+  test::Scene empty;
+  empty.box = scene.box;
+  empty.centre.resize(3, 0);
+  empty.radius.resize(0);
+  EXPECT_TRUE(gridPairs(bu, empty, skin).empty());
   EXPECT_EQ(calls, 2);
 
   // Invalid sizes from the configurator are a ConfigError.
@@ -455,17 +480,21 @@ TEST(HGridCounters, MatchThePerSphereCostModelDefinitions) {
   const test::Scene scene = test::makeScene(
       {.count = 6000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.3, .seed = 21});
   const double skin = 0.2;
-  const std::vector<double> s = {2.5, 4.0, 7.0, 12.0, 20.2};
+  // The second set puts only the smallest ~1% of the spheres on level 1, so Top-Down boxes there have
+  // more cells than the level has occupied cells (the grid then tests occupied cells against the box).
+  for (const std::vector<double>& s : {std::vector<double>{2.5, 4.0, 7.0, 12.0, 20.2},
+                                       std::vector<double>{2.21, 4.0, 7.0, 12.0, 20.2}})
   for (bool topDown : {true, false}) {
-    for (double dense : kDenseLimits) {
-      SCOPED_TRACE(::testing::Message() << (topDown ? "TD" : "BU") << " dense " << dense);
+    for (const auto& storage : kStorage) {
+      SCOPED_TRACE(::testing::Message() << (topDown ? "TD" : "BU") << " storage " << storage[0] << "/" << storage[1]
+                                        << " s_1 " << s[0]);
       std::vector<Pair> counted, plain;
       std::vector<LevelCount> expected;
       std::vector<Counters> got;
       Counters total;
       auto run = [&](auto& grid) {
         grid.setConfig(sizes(s));
-        grid.setDenseCellLimit(dense);
+        grid.setStorageLimits(storage[0], storage[1]);
         grid.build(scene.spheres(), scene.box, skin);
         grid.findPairs(scene.spheres(), plain);
         EXPECT_EQ(grid.counters().cellAccesses, 0u);  // counting off: nothing counted
@@ -630,13 +659,13 @@ TEST(HGridMemory, DiluteHugeBoxStaysLinearInN) {
     s.radius[i] = i % 2 ? 0.01 : 5.0;
     for (int k = 0; k < 3; ++k) s.centre(k, i) = i < 10 ? 500.0 + i * 0.005 : u(rng);
   }
-  for (double dense : kDenseLimits) {
+  for (const auto& storage : kStorage) {
     HGridTopDown td;
-    td.setDenseCellLimit(dense);
+    td.setStorageLimits(storage[0], storage[1]);
     EXPECT_EQ(gridPairs(td, s, 0.001), bruteForcePairs(s, 0.001));
     EXPECT_LT(td.memoryBytes(), 64u * 1024u) << td.describe();
     HGridBottomUp bu;
-    bu.setDenseCellLimit(dense);
+    bu.setStorageLimits(storage[0], storage[1]);
     EXPECT_EQ(gridPairs(bu, s, 0.001), bruteForcePairs(s, 0.001));
   }
 }
