@@ -9,15 +9,37 @@
 
 namespace polydem::broadphase {
 
+double modelCostRatio() {
+  const KCalibration& k = calibratedK();
+  return k.denseCellAccessSeconds > 0.0 && k.pairTestSeconds > 0.0 ? k.denseCellAccessSeconds / k.pairTestSeconds
+                                                                   : kDefaultCellOverPairCost;
+}
+
+namespace {
+bool sameRadii(const std::vector<double>& stored, const SphereView& spheres) {
+  if (static_cast<Index>(stored.size()) != spheres.count()) return false;
+  for (Index i = 0; i < spheres.count(); ++i) {
+    if (stored[static_cast<std::size_t>(i)] != spheres.radius[i]) return false;
+  }
+  return true;
+}
+}  // namespace
+
+HGridConfig CachedGridOptimiser::operator()(const SphereView& spheres, const Box& box, double skin, CrossLevel mode) {
+  if (!(box == box_) || skin != skin_ || mode != mode_ || !sameRadii(radii_, spheres)) {
+    radii_.assign(spheres.radius.data(), spheres.radius.data() + spheres.count());
+    box_ = box;
+    skin_ = skin;
+    mode_ = mode;
+    config_ = optimiseForSpheres(radii_, box.volume(), skin, mode, modelCostRatio());
+  }
+  return config_;
+}
+
 Capabilities AutoSelect::capabilities() const { return chosen_ ? chosen_->capabilities() : Capabilities{}; }
 
 bool AutoSelect::sameInputs(const SphereView& spheres) const {
-  if (!chosen_ || !(lastBox_ == box_) || lastSkin_ != skin_) return false;
-  if (static_cast<Index>(radii_.size()) != spheres.count()) return false;
-  for (Index i = 0; i < spheres.count(); ++i) {
-    if (radii_[static_cast<std::size_t>(i)] != spheres.radius[i]) return false;
-  }
-  return true;
+  return chosen_ && lastBox_ == box_ && lastSkin_ == skin_ && sameRadii(radii_, spheres);
 }
 
 void AutoSelect::doBuild(const SphereView& spheres) {
@@ -30,7 +52,7 @@ void AutoSelect::doBuild(const SphereView& spheres) {
       reason_ = "linked-cell (fewer than two spheres)";
     } else {
       OptimiserOptions options;
-      options.K = costRatio_ ? *costRatio_ : calibratedK().K;
+      options.K = costRatio_ ? *costRatio_ : modelCostRatio();
       const OptimiserResult result = optimiseHGrid(CostModelPsd::sample(radii_, box_.volume(), skin_), options);
       if (result.chosen.linkedCell) {
         chosen_ = std::make_unique<LinkedCell>();
@@ -66,7 +88,10 @@ void AutoSelect::findNeighbours(const SphereView& spheres, Index i, double reach
 std::size_t AutoSelect::memoryBytes() const { return chosen_ ? chosen_->memoryBytes() : 0; }
 
 std::string AutoSelect::describe() const {
-  return chosen_ ? fmt::format("auto -> {}; {}", chosen_->describe(), reason_) : std::string("auto (not built)");
+  if (!chosen_) return "auto (not built)";
+  // An HGrid's description already carries the optimiser's summary (its config origin).
+  if (chosen_->name() == "linked-cell") return fmt::format("auto -> {}; {}", chosen_->describe(), reason_);
+  return fmt::format("auto -> {}", chosen_->describe());
 }
 
 }  // namespace polydem::broadphase

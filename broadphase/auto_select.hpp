@@ -10,8 +10,29 @@
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "broadphase/hgrid_config.hpp"
 
 namespace polydem::broadphase {
+
+/// K for the cost model on this machine: one cell look-up over one pair test, measured once per process
+/// (calibrate_k.hpp). The HGrid keeps most levels in dense or bitmap-ranked cell arrays, so the dense
+/// look-up time is the representative one (a hashed look-up is 3-5x slower; the HGrid uses hashing
+/// only for very sparse levels, whose cells are rarely visited).
+double modelCostRatio();
+
+/// Optimiser-backed HGrid configurator (HGrid::setConfigurator) that caches its answer: the optimiser
+/// runs again only when the radii, the box or the skin change.
+class CachedGridOptimiser {
+ public:
+  HGridConfig operator()(const SphereView& spheres, const Box& box, double skin, CrossLevel mode);
+
+ private:
+  std::vector<double> radii_;
+  Box box_;
+  double skin_ = -1.0;
+  CrossLevel mode_ = CrossLevel::TopDown;
+  HGridConfig config_;
+};
 
 class AutoSelect final : public BroadPhase {
  public:

@@ -25,6 +25,15 @@ std::unique_ptr<BroadPhase> make() {
   return std::make_unique<T>();
 }
 
+// HGrid variants configure themselves with the cost-model optimiser (cached across rebuilds) unless
+// the caller sets cell sizes by hand with setConfig().
+template <class Grid>
+std::unique_ptr<BroadPhase> makeOptimisedGrid() {
+  auto grid = std::make_unique<Grid>();
+  grid->setConfigurator(CachedGridOptimiser{});
+  return grid;
+}
+
 struct Entry {
   std::string_view name;
   std::unique_ptr<BroadPhase> (*create)();
@@ -34,8 +43,8 @@ struct Entry {
 constexpr Entry kBackends[] = {
     {"brute", &make<BruteForce>},
     {"linked-cell", &make<LinkedCell>},
-    {"hgrid-td", &make<HGridTopDown>},
-    {"hgrid-bu", &make<HGridBottomUp>},
+    {"hgrid-td", &makeOptimisedGrid<HGridTopDown>},
+    {"hgrid-bu", &makeOptimisedGrid<HGridBottomUp>},
     {"sap", &make<SweepAndPrune>},
 #if POLYDEM_WITH_CGAL
     {"cgal-box", &make<CgalBox>},

@@ -9,9 +9,15 @@ namespace polydem::app {
 
 PairReport measurePairs(const std::string& backend, const SphereView& spheres, const Box& box, double skin,
                         int repeat) {
-  PairReport r;
-  r.backend = backend;
   auto bp = broadphase::makeBroadPhase(backend);
+  return measurePairs(*bp, spheres, box, skin, repeat);
+}
+
+PairReport measurePairs(broadphase::BroadPhase& backend, const SphereView& spheres, const Box& box, double skin,
+                        int repeat) {
+  PairReport r;
+  r.backend = std::string(backend.name());
+  broadphase::BroadPhase* bp = &backend;
   std::vector<double> build, find;
   for (int k = 0; k <= repeat; ++k) {
     Stopwatch b;

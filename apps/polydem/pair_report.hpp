@@ -22,6 +22,8 @@ struct PairReport {
 /// Build + findPairs `repeat` times (one untimed warm-up first), medians of the times.
 PairReport measurePairs(const std::string& backend, const SphereView& spheres, const Box& box, double skin,
                         int repeat);
+PairReport measurePairs(broadphase::BroadPhase& backend, const SphereView& spheres, const Box& box, double skin,
+                        int repeat);
 void printPairReport(const PairReport& r, Index count);
 
 }  // namespace polydem::app

@@ -1,9 +1,15 @@
 // polydem pairs: run one broad-phase backend on a particle file and report pairs and timing.
+#include <algorithm>
+
 #include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "broadphase/auto_select.hpp"
+#include "broadphase/hgrid.hpp"
+#include "broadphase/hgrid_cost_model.hpp"
+#include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/io/particle_file.hpp"
 
@@ -16,7 +22,47 @@ struct PairsOptions {
   double skin = 0.0;
   int repeat = 5;
   std::string boundaries = "periodic";
+  int levels = 0;
+  std::vector<double> cellSizes;
 };
+
+/// hgrid-td / hgrid-bu with hand-set levels: --cell-sizes as given, or --levels alone with the cost
+/// model's optimal sizes for that L.
+std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, const SphereView& spheres, const Box& box) {
+  auto bp = broadphase::makeBroadPhase(opt.backend);
+  if (opt.levels == 0 && opt.cellSizes.empty()) return bp;
+  const bool topDown = opt.backend == "hgrid-td";
+  if (!topDown && opt.backend != "hgrid-bu") {
+    throw ConfigError(fmt::format("--levels and --cell-sizes apply to hgrid-td and hgrid-bu, not '{}'", opt.backend));
+  }
+  broadphase::HGridConfig config;
+  config.mode = topDown ? broadphase::CrossLevel::TopDown : broadphase::CrossLevel::BottomUp;
+  if (!opt.cellSizes.empty()) {
+    if (opt.levels != 0 && opt.levels != static_cast<int>(opt.cellSizes.size())) {
+      throw ConfigError(fmt::format("--levels {} but --cell-sizes lists {} sizes", opt.levels, opt.cellSizes.size()));
+    }
+    config.cellSizes = opt.cellSizes;
+    config.origin = "set by hand (--cell-sizes)";
+  } else {
+    if (opt.levels < 1) throw ConfigError(fmt::format("--levels must be >= 1, got {}", opt.levels));
+    std::vector<double> radii(spheres.radius.data(), spheres.radius.data() + spheres.count());
+    const auto psd = broadphase::CostModelPsd::sample(radii, box.volume(), opt.skin);
+    const double K = broadphase::modelCostRatio();
+    config.cellSizes = broadphase::optimalCellSizes(psd, opt.levels, config.mode, K);
+    // Collapsed (duplicate) sizes are empty levels: drop them, the grid wants strictly increasing sizes.
+    config.cellSizes.erase(std::unique(config.cellSizes.begin(), config.cellSizes.end()), config.cellSizes.end());
+    config.origin = fmt::format("--levels {}: optimal sizes of the cost model (K = {:.3g}), predicted T/N = {:.3g}",
+                                opt.levels, K, broadphase::costPerParticle(psd, config.cellSizes, config.mode, K));
+  }
+  if (topDown) {
+    auto grid = std::make_unique<broadphase::HGridTopDown>();
+    grid->setConfig(config);
+    return grid;
+  }
+  auto grid = std::make_unique<broadphase::HGridBottomUp>();
+  grid->setConfig(config);
+  return grid;
+}
 }  // namespace
 
 Runner addPairs(CLI::App& app) {
@@ -31,12 +77,16 @@ Runner addPairs(CLI::App& app) {
   cmd->add_option("--boundary", opt->boundaries,
                   "boundaries for text files without a '# boundaries:' line: periodic, walls, or per axis")
       ->capture_default_str();
+  cmd->add_option("--levels", opt->levels, "hgrid-td/-bu: number of levels (sizes from the cost model unless given)");
+  cmd->add_option("--cell-sizes", opt->cellSizes, "hgrid-td/-bu: cell edges s_1 < ... < s_L, comma-separated")
+      ->delimiter(',');
   return [opt]() {
     if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
     const io::ParticleData data = io::readParticles(opt->file, parseBoundaries(opt->boundaries));
     fmt::print("file: {} ({} particles, box {})\n", opt->file, data.count(), data.box.describe());
     const SphereView spheres{data.position, data.radius};
-    const PairReport r = measurePairs(opt->backend, spheres, data.box, opt->skin, opt->repeat);
+    auto backend = makeBackend(*opt, spheres, data.box);
+    const PairReport r = measurePairs(*backend, spheres, data.box, opt->skin, opt->repeat);
     printPairReport(r, data.count());
     return 0;
   };
