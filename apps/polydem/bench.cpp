@@ -5,6 +5,8 @@
 //   levels    seed 000 Fig. 2.5: slowdown factor against the number of HGrid levels L for uniform
 //             radius and uniform volume, omega = 50, measured beside the cost models' predictions
 //   backends  time and memory per particle of every backend across size distributions and densities
+//   optimiser the cost model's choice against an exhaustive measured search over L and mode
+//   scaling   cost per particle against N (10^4..10^6) and against the size ratio, vs mono linked cell
 //   paper     levels + backends at the seed's sizes (N = 125,001)
 #include <algorithm>
 #include <cmath>
@@ -22,6 +24,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
 #include "broadphase/registry.hpp"
@@ -123,7 +126,7 @@ Timed timeBackend(broadphase::BroadPhase& bp, const SphereView& spheres, const B
   std::vector<broadphase::Pair> pairs;
   std::vector<double> t;
   for (int k = 0; k <= repeat; ++k) {
-    Stopwatch clock;
+    CpuStopwatch clock;
     bp.build(spheres, box, skin);
     bp.findPairs(spheres, pairs);
     if (k > 0) t.push_back(clock.seconds());
@@ -170,7 +173,7 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, 
 
   struct Row {
     int L;
-    double m, t, spread, model21, model22;
+    double m, t, spread, model21, model22, modelCd, modelCa;
     std::uint64_t tcd, tca;
     std::string sizes;
   };
@@ -182,11 +185,12 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, 
     grid.setConfig(config);
     const Timed t = timeBackend(grid, spheres, c.box, 0.0, opt.repeat);
     const auto geometry = broadphase::snappedGeometry(level.cellSizes, c.box.lengths());
-    const double model22 = broadphase::costBreakdown(psd, geometry, broadphase::CrossLevel::TopDown).total;
+    const auto breakdown = broadphase::costBreakdown(psd, geometry, broadphase::CrossLevel::TopDown);
+    const double model22 = breakdown.total;
     std::string sizes;
     for (double s : level.cellSizes) sizes += fmt::format("{}{:.4g}", sizes.empty() ? "" : ";", s);
-    rows.push_back({level.levels, level.perCell, t.seconds, t.spread, level.cost, model22, t.pairTests, t.cellAccesses,
-                    sizes});
+    rows.push_back({level.levels, level.perCell, t.seconds, t.spread, level.cost, model22, breakdown.pairTests,
+                    breakdown.cellAccesses, t.pairTests, t.cellAccesses, sizes});
     fmt::print("  L = {:2d}: m = {:.3f}, {:.4f} us/particle (spread {:.0f}%), model L(m+K) = {:.3f}, T/N = {:.2f}\n",
                level.levels, level.perCell, 1e6 * t.seconds / count, 100 * t.spread, level.cost, model22);
   }
@@ -201,15 +205,19 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, 
   LevelsOutcome outcome;
   outcome.label = scene.label;
   for (const Row& r : rows) {
-    csv << fmt::format("{},{},{},{:.6f},{:.6f},{:.5f},{:.4f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{}\n",
+    csv << fmt::format("{},{},{},{:.6f},{:.6f},{:.5f},{:.4f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{}\n",
                        spec.kind, spec.omega, r.L, scene.packing, r.m, 1e6 * r.t / count, r.spread, r.t / tMin,
                        r.model21 / m21Min, r.model22 / m22Min, static_cast<double>(r.tcd) / count,
-                       static_cast<double>(r.tca) / count, r.model22, r.sizes);
+                       static_cast<double>(r.tca) / count, r.modelCd, r.modelCa, r.model22, r.sizes);
     if (r.t == tMin) outcome.bestLevels = r.L;
   }
   outcome.speedupOverOneLevel = rows.front().t / tMin;
+  const Row& bestRow = *std::find_if(rows.begin(), rows.end(), [&](const Row& r) { return r.L == outcome.bestLevels; });
   markdown += fmt::format(
-      "| {} | {:.3f} ({}) | {} | {:.1f}x | {} | {} |\n", scene.label, scene.packing, scene.placement, outcome.bestLevels,
+      "| {} | {:.3f} ({}) | {} | {:.1f}x | {:.3f} / {:.3f} | {:.2f} / {:.2f} | {} | {} |\n", scene.label, scene.packing,
+      scene.placement, outcome.bestLevels, outcome.speedupOverOneLevel,
+      static_cast<double>(bestRow.tcd) / count, bestRow.modelCd, static_cast<double>(bestRow.tca) / count,
+      bestRow.modelCa,
       outcome.speedupOverOneLevel, appendix.optimalLevels,
       [&] {
         int best = 1;
@@ -224,14 +232,18 @@ int runLevels(const BenchOptions& opt, std::string& markdown) {
   const std::filesystem::path dir = opt.out;
   std::ofstream csv(dir / "levels.csv");
   csv << "distribution,omega,L,packing,m,us_per_particle,spread,slowdown,slowdown_model_ch21,slowdown_model_ch22,"
-         "pair_tests_per_particle,cell_accesses_per_particle,model_T_per_particle,cell_sizes\n";
+         "pair_tests_per_particle,cell_accesses_per_particle,model_pair_tests,model_cell_accesses,model_T_per_particle,"
+         "cell_sizes\n";
   markdown +=
       "## Slowdown factor against the number of levels (seed 000 Fig. 2.5)\n\n"
       "Top-Down HGrid, cell sizes from the seed's ch. 2.1 appendix procedure (equal particles per cell on every\n"
       "level); time = one build + one findPairs (contact detection only; the seed timed whole DEM steps).\n"
       "Models: L (m + K) with K = 0.3 (ch. 2.1) and T/N of eq. 2.35 with K = 0.2 (ch. 2.2), snapped cells.\n\n"
-      "| system | packing | fastest L | speed-up over L = 1 | model ONL (ch. 2.1) | model best L (ch. 2.2) |\n"
-      "| --- | --- | --- | --- | --- | --- |\n";
+      "The counted work at the fastest L is shown beside the model's (random-centre) prediction: these are\n"
+      "non-overlapping packings, where excluded volume breaks the model's assumptions.\n\n"
+      "| system | packing | fastest L | speed-up over L = 1 | T_cd/N counted / model | T_ca/N counted / model |"
+      " model ONL (ch. 2.1) | model best L (ch. 2.2) |\n"
+      "| --- | --- | --- | --- | --- | --- | --- | --- |\n";
   for (const char* kind : {"uniform-volume", "uniform-radius"}) {
     DistributionSpec spec;
     spec.kind = kind;
@@ -270,7 +282,7 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   names.push_back("auto");
   markdown += fmt::format(
       "## Broad phases side by side (N = {}, skin = 0.1 r_min, periodic, RSA configurations)\n\n"
-      "Median of {} runs of build + findPairs, in microseconds per particle.\n\n| system | packing |",
+      "Median of {} runs of build + findPairs, thread CPU time in microseconds per particle.\n\n| system | packing |",
       count, opt.repeat);
   for (const auto& n : names) markdown += " " + n + " |";
   markdown += "\n| --- | --- |";
@@ -318,14 +330,167 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   return agree ? 0 : 1;
 }
 
+// ---- optimiser: the cost model's choice against an exhaustive measured search -------------------------
+
+std::unique_ptr<broadphase::BroadPhase> gridWith(broadphase::CrossLevel mode, std::vector<double> sizes) {
+  sizes.erase(std::unique(sizes.begin(), sizes.end()), sizes.end());
+  broadphase::HGridConfig config;
+  config.cellSizes = sizes;
+  config.mode = mode;
+  if (mode == broadphase::CrossLevel::TopDown) {
+    auto g = std::make_unique<broadphase::HGridTopDown>();
+    g->setConfig(config);
+    return g;
+  }
+  auto g = std::make_unique<broadphase::HGridBottomUp>();
+  g->setConfig(config);
+  return g;
+}
+
+int runOptimiser(const BenchOptions& opt, std::string& markdown) {
+  const std::filesystem::path dir = opt.out;
+  std::ofstream csv(dir / "optimiser.csv");
+  csv << "distribution,omega,alpha,packing,mode,L,us_per_particle,model_T_per_particle,is_optimiser_choice\n";
+  const Index count = opt.count > 0 ? opt.count : 100000;
+  const double packing = opt.packing > 0 ? opt.packing : 0.4;
+  markdown += fmt::format(
+      "## Optimiser against exhaustive search (N = {}, packing {}, skin 0.1 r_min)\n\n"
+      "Every L = 1..12 in both modes with the cost model's optimal sizes for that L is timed (median of {}); the\n"
+      "optimiser's own choice (`auto`) is timed beside them.\n\n"
+      "| system | optimiser choice | its time (us/particle) | fastest found | its time | ratio |\n"
+      "| --- | --- | --- | --- | --- | --- |\n",
+      count, packing, opt.repeat);
+  struct Case {
+    std::string kind;
+    double omega, alpha;
+  };
+  for (const Case& c : {Case{"uniform-volume", 10, 0}, Case{"uniform-volume", 50, 0}, Case{"power-law", 50, -2}}) {
+    DistributionSpec spec;
+    spec.kind = c.kind;
+    spec.omega = c.omega;
+    spec.alpha = c.alpha;
+    const BenchScene scene = makeBenchScene(spec, count, packing, 3);
+    const SphereView spheres{scene.config.position, scene.config.radius};
+    const double skin = 0.1 * scene.config.radius.minCoeff();
+    std::vector<double> radii(scene.config.radius.data(), scene.config.radius.data() + count);
+    const auto psd = broadphase::CostModelPsd::sample(radii, scene.config.box.volume(), skin);
+    const double K = broadphase::modelCostRatio();
+    double best = std::numeric_limits<double>::infinity();
+    std::string bestName;
+    for (auto mode : {broadphase::CrossLevel::TopDown, broadphase::CrossLevel::BottomUp}) {
+      for (int L = 1; L <= 12; ++L) {
+        const auto sizes = broadphase::optimalCellSizes(psd, L, mode, K);
+        auto grid = gridWith(mode, sizes);
+        const Timed t = timeBackend(*grid, spheres, scene.config.box, skin, opt.repeat);
+        const double model = broadphase::costPerParticle(psd, sizes, mode, K);
+        const char* modeName = mode == broadphase::CrossLevel::TopDown ? "td" : "bu";
+        csv << fmt::format("{},{},{},{:.3f},{},{},{:.5f},{:.4f},0\n", c.kind, c.omega, c.alpha, scene.packing, modeName,
+                           L, 1e6 * t.seconds / count, model);
+        if (t.seconds < best) {
+          best = t.seconds;
+          bestName = fmt::format("hgrid-{} L={}", modeName, L);
+        }
+      }
+    }
+    auto autoBp = broadphase::makeBroadPhase("auto");
+    const Timed a = timeBackend(*autoBp, spheres, scene.config.box, skin, opt.repeat);
+    const auto* chosen = static_cast<const broadphase::AutoSelect*>(autoBp.get())->chosen();
+    std::string choice = std::string(chosen->name());
+    if (const auto* td = dynamic_cast<const broadphase::HGridTopDown*>(chosen)) {
+      choice += fmt::format(" L={}", td->levelCount());
+    } else if (const auto* bu = dynamic_cast<const broadphase::HGridBottomUp*>(chosen)) {
+      choice += fmt::format(" L={}", bu->levelCount());
+    }
+    csv << fmt::format("{},{},{},{:.3f},auto,{},{:.5f},,1\n", c.kind, c.omega, c.alpha, scene.packing, choice,
+                       1e6 * a.seconds / count);
+    markdown += fmt::format("| {}{} | {} | {:.4f} | {} | {:.4f} | {:.2f} |\n", scene.label,
+                            c.alpha != 0 ? fmt::format(" alpha={:g}", c.alpha) : "", choice, 1e6 * a.seconds / count,
+                            bestName, 1e6 * best / count, a.seconds / best);
+    fmt::print("  {}: optimiser {} {:.4f} us, fastest {} {:.4f} us, ratio {:.2f}\n", scene.label, choice,
+               1e6 * a.seconds / count, bestName, 1e6 * best / count, a.seconds / best);
+  }
+  markdown += "\n";
+  return 0;
+}
+
+// ---- scaling: cost per particle against N and against the size ratio ----------------------------------
+
+int runScaling(const BenchOptions& opt, std::string& markdown) {
+  const std::filesystem::path dir = opt.out;
+  std::ofstream csv(dir / "scaling.csv");
+  csv << "series,distribution,omega,N,packing,backend,us_per_particle,spread,bytes_per_particle,ratio_to_mono_linked_cell\n";
+  const double packing = opt.packing > 0 ? opt.packing : 0.4;
+  const std::vector<Index> sizes = opt.count > 0 ? std::vector<Index>{opt.count}
+                                                 : std::vector<Index>{10000, 100000, 1000000};
+  markdown += fmt::format(
+      "## Cost per particle against N (packing {}, skin 0.1 r_min)\n\n"
+      "`auto` on uniform volume omega = 50 beside linked cell on the monodisperse system of the same N and\n"
+      "packing fraction (median of {} runs of build + findPairs).\n\n"
+      "| N | mono, linked-cell (us) | UV omega=50, auto (us) | ratio |\n| --- | --- | --- | --- |\n",
+      packing, opt.repeat);
+  for (Index n : sizes) {
+    DistributionSpec mono;
+    const BenchScene m = makeBenchScene(mono, n, packing, 4);
+    auto lc = broadphase::makeBroadPhase("linked-cell");
+    const Timed tm = timeBackend(*lc, {m.config.position, m.config.radius}, m.config.box, 0.1, opt.repeat);
+    DistributionSpec uv;
+    uv.kind = "uniform-volume";
+    uv.omega = 50;
+    const BenchScene p = makeBenchScene(uv, n, packing, 4);
+    auto au = broadphase::makeBroadPhase("auto");
+    const Timed tp = timeBackend(*au, {p.config.position, p.config.radius}, p.config.box, 0.1, opt.repeat);
+    csv << fmt::format("N,mono,1,{},{:.3f},linked-cell,{:.5f},{:.3f},{:.1f},1\n", n, m.packing, 1e6 * tm.seconds / n,
+                       tm.spread, static_cast<double>(tm.bytes) / n);
+    csv << fmt::format("N,uniform-volume,50,{},{:.3f},auto,{:.5f},{:.3f},{:.1f},{:.4f}\n", n, p.packing,
+                       1e6 * tp.seconds / n, tp.spread, static_cast<double>(tp.bytes) / n, tp.seconds / tm.seconds);
+    markdown += fmt::format("| {} | {:.4f} | {:.4f} | {:.2f} |\n", n, 1e6 * tm.seconds / n, 1e6 * tp.seconds / n,
+                            tp.seconds / tm.seconds);
+    fmt::print("  N = {}: mono linked-cell {:.4f} us, UV50 auto {:.4f} us, ratio {:.2f}\n", n, 1e6 * tm.seconds / n,
+               1e6 * tp.seconds / n, tp.seconds / tm.seconds);
+  }
+  const Index n = opt.count > 0 ? opt.count : 100000;
+  markdown += fmt::format(
+      "\n## Cost per particle against the size ratio (N = {}, packing {})\n\n"
+      "| omega | UV auto (us) | mono linked-cell (us) | ratio | linked-cell on UV (us) |\n"
+      "| --- | --- | --- | --- | --- |\n",
+      n, packing);
+  DistributionSpec mono;
+  const BenchScene m = makeBenchScene(mono, n, packing, 5);
+  auto lc = broadphase::makeBroadPhase("linked-cell");
+  const Timed tm = timeBackend(*lc, {m.config.position, m.config.radius}, m.config.box, 0.1, opt.repeat);
+  for (double omega : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
+    DistributionSpec uv;
+    uv.kind = "uniform-volume";
+    uv.omega = omega;
+    const BenchScene p = makeBenchScene(uv, n, packing, 5);
+    const SphereView sp{p.config.position, p.config.radius};
+    auto au = broadphase::makeBroadPhase("auto");
+    const Timed tp = timeBackend(*au, sp, p.config.box, 0.1, opt.repeat);
+    std::string lcText = "-";
+    if (omega <= 20.0) {  // linked cell on wide distributions takes minutes
+      auto lcp = broadphase::makeBroadPhase("linked-cell");
+      lcText = fmt::format("{:.4f}", 1e6 * timeBackend(*lcp, sp, p.config.box, 0.1, 1).seconds / n);
+    }
+    csv << fmt::format("omega,uniform-volume,{},{},{:.3f},auto,{:.5f},{:.3f},{:.1f},{:.4f}\n", omega, n, p.packing,
+                       1e6 * tp.seconds / n, tp.spread, static_cast<double>(tp.bytes) / n, tp.seconds / tm.seconds);
+    markdown += fmt::format("| {:g}{} | {:.4f} | {:.4f} | {:.2f} | {} |\n", omega,
+                            p.config.box.fullyPeriodic() ? "" : " (walls)", 1e6 * tp.seconds / n,
+                            1e6 * tm.seconds / n, tp.seconds / tm.seconds, lcText);
+    fmt::print("  omega = {}: UV auto {:.4f} us, ratio to mono LC {:.2f}\n", omega, 1e6 * tp.seconds / n,
+               tp.seconds / tm.seconds);
+  }
+  markdown += "\n";
+  return 0;
+}
+
 }  // namespace
 
 Runner addBench(CLI::App& app) {
   auto opt = std::make_shared<BenchOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "run a named benchmark suite and write a report (CSV, PNG, Markdown)");
-  cmd->add_option("suite", opt->suite, "quick, levels, backends, paper")
+  cmd->add_option("suite", opt->suite, "quick, levels, backends, optimiser, scaling, paper")
       ->required()
-      ->check(CLI::IsMember({"quick", "levels", "backends", "paper"}));
+      ->check(CLI::IsMember({"quick", "levels", "backends", "optimiser", "scaling", "paper"}));
   cmd->add_option("--out", opt->out, "report directory")->capture_default_str();
   cmd->add_option("--repeat", opt->repeat, "timed repetitions per case (median and spread reported)")
       ->capture_default_str();
@@ -354,6 +519,10 @@ Runner addBench(CLI::App& app) {
       status = runLevels(*opt, markdown);
     } else if (opt->suite == "backends") {
       status = runBackends(*opt, markdown, false);
+    } else if (opt->suite == "optimiser") {
+      status = runOptimiser(*opt, markdown);
+    } else if (opt->suite == "scaling") {
+      status = runScaling(*opt, markdown);
     } else {
       status = runLevels(*opt, markdown);
       status |= runBackends(*opt, markdown, false);

@@ -2,6 +2,7 @@
 // Helpers shared by the subcommands: option groups, parsing of boundary names, timing.
 #include <array>
 #include <chrono>
+#include <ctime>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,22 @@ class Stopwatch {
 
  private:
   std::chrono::steady_clock::time_point start_;
+};
+
+/// CPU seconds of the calling thread since construction: less sensitive than wall time to other jobs
+/// on a shared machine (benchmarks report it).
+class CpuStopwatch {
+ public:
+  CpuStopwatch() : start_(now()) {}
+  double seconds() const { return now() - start_; }
+
+ private:
+  static double now() {
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  }
+  double start_;
 };
 
 double median(std::vector<double> values);
