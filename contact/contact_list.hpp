@@ -5,6 +5,11 @@
 //
 // The CSR order is canonical ((i, j) ascending) whatever backend produced the pairs, so forces are
 // summed in the same order and every backend gives bit-identical trajectories.
+//
+// The threaded force loop also needs thread blocks, built by buildBlocks() after each rebuild: the rows
+// split into contiguous blocks of about equal work (one per thread), and the "cross" pairs whose j lies
+// in a later block than i. Each thread owns the forces of its block; a cross pair is computed once, by
+// the owner of j, before the owners of i read it back (contact/force_loop.hpp).
 #include <cstdint>
 #include <vector>
 
@@ -20,14 +25,33 @@ struct ContactList {
   std::vector<Index> neighbour;       ///< j per candidate pair; row i lists j > i ascending
   std::vector<Index> wallParticle;    ///< particle per wall candidate, ascending
   std::vector<std::int8_t> wallFace;  ///< face per wall candidate (see kFaceCount)
+  // Thread blocks (empty unless buildBlocks() ran).
+  std::vector<Index> blockStart;    ///< B + 1 row boundaries
+  std::vector<Index> crossStart;    ///< B + 1 starts into the cross arrays, by the block of i
+  std::vector<Index> crossPair;     ///< slot c of each cross pair, ascending
+  std::vector<Index> crossRow;      ///< i of each cross pair
+  std::vector<Index> targetOffset;  ///< B + 1 starts into `byTarget`, by the block of j
+  std::vector<Index> byTarget;      ///< cross-pair indices grouped by the block of j, ascending in each group
+
+  /// Split the rows into `blocks` contiguous blocks of about equal work (candidates + 1 per row) and
+  /// list the cross pairs. O(N + P); buffers only grow, so steady-state rebuilds do not allocate.
+  void buildBlocks(int blocks);
+  Index blockCount() const { return blockStart.empty() ? 0 : static_cast<Index>(blockStart.size() - 1); }
+  std::size_t crossCount() const { return crossPair.size(); }
 
   Index particleCount() const { return offset.empty() ? 0 : static_cast<Index>(offset.size() - 1); }
   std::size_t pairCount() const { return neighbour.size(); }
   std::size_t wallCount() const { return wallParticle.size(); }
   std::size_t memoryBytes() const {
     return offset.capacity() * sizeof(Index) + neighbour.capacity() * sizeof(Index) +
-           wallParticle.capacity() * sizeof(Index) + wallFace.capacity();
+           wallParticle.capacity() * sizeof(Index) + wallFace.capacity() +
+           (blockStart.capacity() + crossStart.capacity() + crossPair.capacity() + crossRow.capacity() +
+            targetOffset.capacity() + byTarget.capacity() + crossTarget_.capacity()) *
+               sizeof(Index);
   }
+
+ private:
+  std::vector<Index> crossTarget_;  // scratch of buildBlocks(): the block of j per cross pair
 };
 
 /// History key of a particle pair from their stored ids: order-independent, unique per pair.

@@ -66,6 +66,7 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
       }
     }
   }
+  if (blocks_ > 1) list_.buildBlocks(blocks_);
   reference_ = spheres.centre;  // same size after the first build: no allocation
 }
 

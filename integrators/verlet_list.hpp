@@ -28,6 +28,10 @@ class VerletList {
   /// O(N + P) plus the backend's build.
   void build(const SphereView& spheres, const Box& box);
 
+  /// Also split the list into `blocks` thread blocks (ContactList::buildBlocks) at every build, for the
+  /// threaded force loop; 0 or 1 = none (the default). Takes effect at the next build.
+  void setBlocks(int blocks) { blocks_ = blocks; }
+
   /// Fill history keys for the current list from the particles' stored ids (pairKey / wallKey).
   void keys(std::span<const Index> ids, std::vector<std::uint64_t>& pairKeys,
             std::vector<std::uint64_t>& wallKeys) const;
@@ -47,6 +51,7 @@ class VerletList {
   std::unique_ptr<broadphase::BroadPhase> backend_;
   double skin_;
   std::int64_t builds_ = 0;
+  int blocks_ = 0;
   contact::ContactList list_;
   Eigen::Matrix3Xd reference_;
   std::vector<broadphase::Pair> pairs_;

@@ -13,6 +13,7 @@ Runner addPairs(CLI::App& app);
 Runner addExample(CLI::App& app);
 Runner addRelax(CLI::App& app);
 Runner addJam(CLI::App& app);
+Runner addAnalyze(CLI::App& app);
 Runner addBench(CLI::App& app);
 
 }  // namespace polydem::app

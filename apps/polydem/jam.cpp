@@ -34,7 +34,7 @@ struct JamOptions {
   double maxCollisions = 1e7;
   double block = 0.0;
   std::string broadPhase = "hgrid-td";
-  double neighbourhoodScale = 1.25;
+  double neighbourhoodScale = 1.4;
   double skinCap = 4.0;
   double contactGap = 0.0;
   double runCollisions = 0.0;
@@ -102,7 +102,7 @@ Runner addJam(CLI::App& app) {
   cmd->add_option("--skin-cap", opt->skinCap, "largest skin in units of the smallest radius x (scale - 1)")
       ->capture_default_str();
   cmd->add_option("--contact-gap", opt->contactGap,
-                  "contact when gap <= this x (r_i + r_j); 0 = 1e4 / p clamped to [1e-12, 1e-3]")
+                  "contact when gap <= this x (r_i + r_j); 0 = max(100/p, sqrt(1e-3/p)), at most 1e-3")
       ->capture_default_str();
   cmd->add_option("--run-collisions", opt->runCollisions,
                   "afterwards run this many collisions per particle at fixed density (pressure-leak test, timing)")
@@ -167,9 +167,9 @@ Runner addJam(CLI::App& app) {
     double lastPrint = -1e300;
     auto line = [&](const edmd::Progress& p) {
       fmt::print("phi {:.6f}  p {:>10}  phiJ~ {:.6f}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
-                 "coll/s {:.3g}  wall {:.1f} s\n",
+                 "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
                  p.packingFraction, fmtPressure(p.pressure), p.jammingEstimate, p.rate, p.collisionsPerParticle,
-                 p.eventsPerSecond, p.collisionsPerSecond, p.wallSeconds);
+                 p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision, p.wallSeconds);
       std::fflush(stdout);
     };
     edmd::Progress lastShown;

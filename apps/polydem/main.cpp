@@ -10,6 +10,7 @@
 #include "polydem/config.hpp"
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines appear promptly when redirected
   CLI::App app{"polydem " POLYDEM_VERSION ": simulation and packing of polydisperse spheres"};
   app.require_subcommand(1);
   app.set_version_flag("--version", POLYDEM_VERSION);
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addExample);
   add(&polydem::app::addRelax);
   add(&polydem::app::addJam);
+  add(&polydem::app::addAnalyze);
   add(&polydem::app::addBench);
   try {
     app.parse(argc, argv);

@@ -39,6 +39,7 @@ struct RelaxOptions {
   std::optional<std::string> broadPhase;
   std::optional<double> skin;
   std::optional<std::string> kernel;
+  std::optional<int> threads;
   std::string sweep;
   bool quiet = false;
 };
@@ -183,7 +184,8 @@ RunSummary runScene(const RelaxScene& scene, Start start, bool quiet, bool brief
   if (!brief) {
     fmt::print("particles: {} ({}), box {}, packing fraction {:.4f}\n", n, start.origin, sim.box().describe(),
                sim.packingFraction());
-    fmt::print("contact: {}; kernel {}\n", sim.model().parameters().describe(), sim.kernel().name);
+    fmt::print("contact: {}; kernel {}{}\n", sim.model().parameters().describe(), sim.kernel().name,
+               scene.dem.threads > 1 ? fmt::format(", {} OpenMP threads", scene.dem.threads) : std::string(", serial"));
     fmt::print("time step: {}\n", sim.timeStepChoice().describe());
     fmt::print("broad phase: {} (skin {:.4g}, rebuilt when a particle moved skin/2)\n",
                sim.neighbours().backend().describe(), sim.neighbours().skin());
@@ -263,9 +265,9 @@ RunSummary runScene(const RelaxScene& scene, Start start, bool quiet, bool brief
              e.rotational, e.elastic, e.potential);
   fmt::print("                      total {:.8g} (start {:.8g}, relative change {:+.3e})\n", e.total(),
              sim.initialEnergy(), (e.total() - sim.initialEnergy()) / std::abs(sim.initialEnergy()));
-  fmt::print("time                  {:.3f} us/particle/step in the loop: broad phase {:.3f}, force {:.3f}, "
-             "integration {:.3f}, checks {:.3f}\n",
-             loopSeconds * perParticleStep, t.broadPhase * perParticleStep, t.force * perParticleStep,
+  fmt::print("time                  {:.4f} us/particle/step in the loop ({:.3f} s): broad phase {:.4f}, force {:.4f}, "
+             "integration {:.4f}, checks {:.4f}\n",
+             loopSeconds * perParticleStep, loopSeconds, t.broadPhase * perParticleStep, t.force * perParticleStep,
              t.integration * perParticleStep, t.check * perParticleStep);
   fmt::print("neighbour list        {} rebuilds ({:.1f} steps per rebuild), {} candidate pairs ({:.2f} per particle)\n",
              sim.rebuilds(), static_cast<double>(sim.step()) / std::max<std::int64_t>(1, sim.rebuilds() - 1),
@@ -385,6 +387,7 @@ Runner addRelax(CLI::App& app) {
   cmd->add_option("--broadphase", opt->broadPhase, "run.broadphase: brute, linked-cell, hgrid-td, ..., auto");
   cmd->add_option("--skin", opt->skin, "run.skin: Verlet skin (m)");
   cmd->add_option("--kernel", opt->kernel, "run.kernel: specialised or general (for comparisons)");
+  cmd->add_option("--threads", opt->threads, "run.threads: OpenMP threads for forces and kicks (1 = serial)");
   cmd->add_option("--sweep", opt->sweep, "dt-factor=10,20,50,100,200 or skin=...: error against wall time");
   cmd->add_flag("-q,--quiet", opt->quiet, "no progress lines");
   return [opt]() {
@@ -394,6 +397,7 @@ Runner addRelax(CLI::App& app) {
     if (opt->broadPhase) overrides.push_back(fmt::format("run.broadphase=\"{}\"", *opt->broadPhase));
     if (opt->skin) overrides.push_back(fmt::format("run.skin={:.17g}", *opt->skin));
     if (opt->kernel) overrides.push_back(fmt::format("run.kernel=\"{}\"", *opt->kernel));
+    if (opt->threads) overrides.push_back(fmt::format("run.threads={}", *opt->threads));
     const RelaxScene scene = loadRelaxScene(opt->scene, overrides);
     fmt::print("polydem relax {}\n", opt->scene);
     if (!opt->sweep.empty()) return runSweep(scene, opt->sweep, opt->quiet);

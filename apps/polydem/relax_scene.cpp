@@ -331,6 +331,9 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   const std::string kernel = run.choice("kernel", "specialised", {"specialised", "specialized", "general"});
   dem.generalKernel = kernel == "general";
   dem.spatialSort = run.boolean("spatial_sort", dem.spatialSort);
+  const std::int64_t threads = run.integer("threads", dem.threads);
+  if (threads < 1 || threads > 1024) throw ConfigError(fmt::format("run.threads must be in [1, 1024], got {}", threads));
+  dem.threads = static_cast<int>(threads);
   s.progressInterval = run.number("progress_interval", s.progressInterval);
   run.finish();
   dem.stability.validate();

@@ -55,6 +55,8 @@ TEST(RelaxScene, OverridesAreTypedTomlValuesOrPlainWords) {
   ASSERT_TRUE(s.compression.has_value());
   EXPECT_EQ(s.compression->targetPacking, 0.6);
   EXPECT_EQ(s.dem.stepsPerContact, 100.0);
+  EXPECT_EQ(parseRelaxScene(kMinimal).dem.threads, 1);
+  EXPECT_EQ(parseRelaxScene(kMinimal, {"run.threads=2"}).dem.threads, 2);
 }
 
 TEST(RelaxScene, UnknownAndMissingKeysAreNamed) {
@@ -75,6 +77,7 @@ TEST(RelaxScene, OutOfRangeValuesAreNamed) {
   EXPECT_THAT(configError(kMinimal, {"contact.friction=-1"}), HasSubstr("contact.friction must be >= 0"));
   EXPECT_THAT(configError(kMinimal, {"contact.stiffness=0"}), HasSubstr("contact.stiffness must be > 0"));
   EXPECT_THAT(configError(kMinimal, {"run.dt_factor=4"}), HasSubstr("run.dt_factor"));
+  EXPECT_THAT(configError(kMinimal, {"run.threads=0"}), HasSubstr("run.threads must be in [1, 1024]"));
   EXPECT_THAT(configError(kMinimal, {"contact.law=\"hooke\""}), HasSubstr("contact.law = \"hooke\" is not valid"));
   EXPECT_THAT(configError(kMinimal, {"run.steps=\"many\""}), HasSubstr("run.steps (from --set) must be an integer"));
   EXPECT_THAT(configError(kMinimal, {"box.boundaries=\"sticky\""}), HasSubstr("box.boundaries"));
@@ -98,6 +101,7 @@ TEST(RelaxScene, ExampleSceneParses) {
   EXPECT_EQ(s.count, 50000);
   EXPECT_EQ(s.distribution.omega, 10.0);
   EXPECT_EQ(s.dem.contact.restitution, 0.9);
+  EXPECT_EQ(s.dem.threads, 1);
 }
 
 }  // namespace

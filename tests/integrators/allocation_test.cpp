@@ -3,11 +3,13 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <utility>
 
 #include <gtest/gtest.h>
 
 #include "integrators/dem_simulation.hpp"
 #include "integrators/initial_velocities.hpp"
+#include "polydem/config.hpp"
 #include "tests/integrators/dem_scenes.hpp"
 
 namespace {
@@ -27,8 +29,10 @@ namespace polydem::integrators {
 namespace {
 
 TEST(TimeLoop, DoesNotAllocateOnceSized) {
-  for (bool friction : {false, true}) {
-    SCOPED_TRACE(friction ? "frictional, walls" : "frictionless, periodic");
+  for (const auto& [friction, threads] : {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 2}, std::pair{true, 2}}) {
+    if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
+    SCOPED_TRACE(::testing::Message() << (friction ? "frictional, walls" : "frictionless, periodic") << ", " << threads
+                                      << " threads");
     Box box;
     std::vector<double> radii;
     for (int i = 0; i < 343; ++i) radii.push_back(1.0 + 0.5 * (i % 3));
@@ -40,6 +44,7 @@ TEST(TimeLoop, DoesNotAllocateOnceSized) {
     settings.contact.friction = friction ? 0.5 : 0.0;
     settings.skin = 0.05;  // frequent rebuilds
     settings.stability.checkInterval = 25;
+    settings.threads = threads;  // the OpenMP runtime allocates with malloc, not operator new: our buffers only
     assignImpactVelocities(contact::ContactModel(settings.contact), p, 0.02, 1);
     // Brute force keeps no index, so this checks the DEM loop itself (kicks, drift, rebuild into the CSR
     // list, history remap, force kernel, stability checks). Backends own their build: linked-cell

@@ -10,6 +10,7 @@
 #include "integrators/dem_simulation.hpp"
 #include "integrators/initial_velocities.hpp"
 #include "integrators/soft_compression.hpp"
+#include "polydem/config.hpp"
 #include "tests/integrators/dem_scenes.hpp"
 
 namespace polydem::integrators {
@@ -58,7 +59,7 @@ TEST(ElasticGas, EnergyDriftBelow1e4Over1e5StepsAndMomentumConserved) {
 }
 
 /// A frictional, damped scene with walls on z and gravity: every feature of the general kernel.
-DemSimulation frictionalScene(const std::string& backend, double skin, bool spatialSort) {
+DemSimulation frictionalScene(const std::string& backend, double skin, bool spatialSort, int threads = 1) {
   Box box;
   std::vector<double> radii;
   for (int i = 0; i < 216; ++i) radii.push_back(1.0 + 0.5 * ((i * 37) % 101) / 100.0);  // 1..1.5
@@ -74,6 +75,7 @@ DemSimulation frictionalScene(const std::string& backend, double skin, bool spat
   settings.gravity = Eigen::Vector3d(0.0, 0.0, -20.0);
   settings.viscousDamping = 0.01;
   settings.stability.checkInterval = 50;
+  settings.threads = threads;
   return DemSimulation(std::move(p), box, settings);
 }
 
@@ -94,6 +96,45 @@ TEST(SameTrajectory, EveryCompleteBackendMatchesBruteForceBitForBit) {
     EXPECT_TRUE(sim.particles().angularVelocity() == reference.particles().angularVelocity());
   }
 }
+
+#if POLYDEM_WITH_OPENMP
+TEST(SameTrajectory, ThreadCountDoesNotChangeTheTrajectory) {
+  // The threaded force loop sums in the serial order and the kicks are per particle, so any
+  // thread count reproduces the serial run bit for bit: frictional with walls, gravity and damping
+  // (rotation, histories, wall contacts) and a frictionless periodic gas (the lean kernel).
+  DemSimulation reference = frictionalScene("linked-cell", 0.1, true);
+  reference.advance(400);
+  EXPECT_GT(reference.pairHistory().activeCount(), 0u);
+  for (int threads : {2, 3}) {
+    SCOPED_TRACE(::testing::Message() << threads << " threads");
+    DemSimulation sim = frictionalScene("linked-cell", 0.1, true, threads);
+    sim.advance(400);
+    EXPECT_EQ(sim.rebuilds(), reference.rebuilds());
+    EXPECT_TRUE(sim.particles().position() == reference.particles().position());
+    EXPECT_TRUE(sim.particles().velocity() == reference.particles().velocity());
+    EXPECT_TRUE(sim.particles().angularVelocity() == reference.particles().angularVelocity());
+  }
+  Box box;
+  ParticleStore p = test::latticeGas(alternating(343, 1.0, 1.6), 0.45, box, 4);
+  DemSettings settings;
+  settings.contact = linear(0.8);
+  settings.skin = 0.05;
+  assignImpactVelocities(ContactModel(settings.contact), p, 0.03, 5);
+  DemSimulation serial(p, box, settings);
+  settings.threads = 2;
+  DemSimulation threaded(p, box, settings);
+  serial.advance(500);
+  threaded.advance(500);
+  EXPECT_GT(serial.contactStats().contacts, 10u);
+  EXPECT_GT(serial.rebuilds(), 3);
+  EXPECT_TRUE(serial.particles().position() == threaded.particles().position());
+  EXPECT_TRUE(serial.particles().velocity() == threaded.particles().velocity());
+}
+#else
+TEST(SameTrajectory, ThreadsNeedAnOpenMPBuild) {
+  EXPECT_THROW(frictionalScene("linked-cell", 0.1, true, 2), ConfigError);
+}
+#endif
 
 TEST(SameTrajectory, SkinChangesRebuildsButNotTheTrajectory) {
   // Forces are summed over the contacts of each canonical CSR row: candidates that are not in contact

@@ -1,0 +1,44 @@
+#pragma once
+// Indexed (4-ary) min-heap holding exactly one key (event time) per particle, seed 001 §3.2.2
+// (shared/seeds/001_3d36564c50aaa2ef.txt:2960-2963, :3110-3111): heap size = N, operations top, and
+// update of an arbitrary particle's key (the partner of a collision, the claimed particle of a
+// prediction) in O(log N). Nodes carry (key, particle) side by side so sifting touches one array.
+// Rejected: a calendar queue (faster for huge N, but its bucket width must track a collision rate that
+// spans twelve decades during a compression) and several events per particle (seed :2963-2968).
+#include <cstddef>
+#include <vector>
+
+#include "core/types.hpp"
+
+namespace polydem::edmd {
+
+class EventQueue {
+ public:
+  /// `count` particles, every key +inf. O(N).
+  void reset(Index count);
+  /// Rebuild from the given keys (one per particle, same count as reset). O(N).
+  void assign(const std::vector<double>& keys);
+  Index size() const { return static_cast<Index>(heap_.size()); }
+  bool empty() const { return heap_.empty(); }
+  /// Particle with the smallest key (ties: any). Precondition: not empty.
+  Index top() const { return heap_[0].particle; }
+  double topKey() const { return heap_[0].key; }
+  double key(Index particle) const { return heap_[static_cast<std::size_t>(position_[particle])].key; }
+  /// Set a particle's key and restore the heap order. O(log N).
+  void update(Index particle, double key);
+  /// Heap order and position index consistent; throws std::logic_error (tests).
+  void validate() const;
+
+ private:
+  static constexpr std::size_t kArity = 4;
+  struct Node {
+    double key;
+    Index particle;
+  };
+  void siftUp(std::size_t k);
+  void siftDown(std::size_t k);
+  std::vector<Node> heap_;
+  std::vector<Index> position_;
+};
+
+}  // namespace polydem::edmd

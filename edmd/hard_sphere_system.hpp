@@ -1,0 +1,302 @@
+#pragma once
+// Event-driven molecular dynamics (EDMD) of hard spheres with radii growing in proportion to their size,
+// the engine of the Lubachevsky-Stillinger compression (seed 001 ch. 3, shared/seeds/001_3d36564c50aaa2ef.txt;
+// digest shared/spec/event-driven-and-jamming.md §1).
+//
+// Design (seed Algorithms 2-5, :3062-3190):
+// * Every particle lives at its own time: its state (x, v, t_i, radius at the last synchronisation) is
+//   advanced only when it takes part in an event (:2400-2404). The global clock is reset to 0 at every
+//   synchronisation (Algorithm 3, :3114-3125), which keeps |t| small near jamming.
+// * One predicted event per particle in an indexed binary heap (:2960-2963): binary collision, check
+//   after a partner's collision, plain check (prediction invalidated by a third party), exit from the
+//   bounding neighbourhood, hard-wall collision. Predictions accept a collision with j only before both
+//   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (:3173-3180); a claimed particle's
+//   previous partner is lazily relabelled a check at its old time (:3184-3190). The strict test is
+//   what stops a just-collided pair from being re-predicted at zero delay by the first of the two.
+// * Near-neighbour lists with bounding neighbourhoods (§1.11, :2786-2823): neighbourhood i is a sphere
+//   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
+//   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
+//   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
+//   list through the shared broad phase (update() then findNeighbours(), STYLE §4), so the work per
+//   event does not depend on the size ratio. The broad phase indexes the neighbourhood spheres.
+//   rho_i is fixed between global rebuilds ("epochs") because broadphase update() may not change radii;
+//   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
+//   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
+//   skin_i = (mu - 1) min(O_i, kappa O_min): proportional for small spheres, capped for large ones, whose
+//   list would otherwise grow as (O_i / O_min)^3 instead of (O_i / O_min)^2.
+// * Growth: O_i(t) = O_i(0) (1 + g t) with one relative rate g (1/s), so dO_i/dt is proportional to O_i
+//   and the size distribution keeps its shape (seed 000 eq. 3.22; digest §2.3).
+// * Collisions: kinematics.hpp (robust quadratic, elastic rule with the growth term).
+// * Pressure: collisional virial over a window, p = PV/(N k_B T) = 1 + sum(|r_ij| J) / (2 int K dt)
+//   (digest §2.5; equal to the seed-000 form Z = 1 + sum |dp| l / (2 E dt), eq. 3.33). Wall collisions add
+//   O_i J (the distance from the centre to the contact point), which makes p the pressure on the walls.
+// * Masses proportional to O^3 (uniform density), scaled so the mean mass is 1.
+//
+// Units: any consistent set; lengths as given, time in length / speed.
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "broadphase/broad_phase.hpp"
+#include "core/box.hpp"
+#include "core/types.hpp"
+#include "edmd/event_queue.hpp"
+
+namespace polydem::edmd {
+
+struct SystemOptions {
+  /// Broad phase indexing the neighbourhoods (registry name). Must have a cheap update(): hgrid-td and
+  /// hgrid-bu move a sphere across cells in O(1); linked-cell re-sorts everything on a cell change.
+  std::string broadPhase = "hgrid-td";
+  /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
+  double neighbourhoodScale = 1.4;
+  /// kappa: cap of the skin in units of the smallest radius (wide size distributions).
+  double skinCap = 4.0;
+  /// Floor of the skin in units of the smallest radius: skin_i = (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min),
+  /// f = skinFloor initially.
+  double skinFloor = 1.0;
+  /// Adapt f at global rebuilds from the ratio of neighbourhood exits to collisions (seed :3944-3953):
+  /// x1.3 above 0.8 exits per collision, /1.15 below 0.2 (never below skinFloor). Small, fast spheres of
+  /// wide size distributions then get skins of a few smallest radii; monodisperse systems are unaffected.
+  bool adaptiveSkin = true;
+  /// Floor of the surface separation speed after a collision (m/s), against zero-delay re-collisions of
+  /// grazing pairs whose approach speed is below round-off. Far below any physical speed.
+  double minSeparationSpeed = 1e-10;
+  /// Relative overlap (s - |r|) / s found at a collision above which the run stops with SimulationError.
+  double overlapLimit = 1e-6;
+  /// Watchdog: within one run() a particle may take part in at most
+  /// watchdogFactor x (mean collisions per particle requested) + watchdogSlack collisions.
+  double watchdogFactor = 1000.0;
+  std::int64_t watchdogSlack = 100000;
+  /// Renumber the particles internally along a Morton curve at every global rebuild and, at a
+  /// synchronisation, once this many collisions per particle have passed since the last renumbering
+  /// (0 = only at rebuilds). Neighbours then sit close in memory: the prediction loop is bound by loads
+  /// of the neighbours' states. Invisible to callers (every accessor uses the caller's order).
+  double resortInterval = 50.0;
+};
+
+enum class EventKind : std::uint8_t {
+  None,          ///< nothing predicted (time +inf)
+  Collision,     ///< binary collision with `partner`
+  PartnerCheck,  ///< the partner of a collision just processed: state already advanced, re-predict
+  Check,         ///< prediction invalidated by a third party: re-predict at this time
+  Exit,          ///< touches the inner surface of its bounding neighbourhood
+  Wall           ///< hard-wall collision, partner = 2 axis + (upper ? 1 : 0)
+};
+
+struct Event {
+  double time;
+  Index partner;
+  EventKind kind;
+};
+
+/// Event counts (cumulative since construction, or of one run() call).
+struct EventCounts {
+  std::int64_t collisions = 0;      ///< binary collisions processed
+  std::int64_t wallCollisions = 0;
+  std::int64_t checks = 0;          ///< partner checks and invalidated predictions
+  std::int64_t exits = 0;           ///< neighbourhood exits (partial list rebuilds)
+  std::int64_t rebuilds = 0;        ///< global neighbourhood rebuilds
+  std::int64_t relocatedLists = 0;  ///< neighbour lists moved to a larger slot (out of room)
+  std::int64_t missed = 0;          ///< predicted collisions found separating when processed (grazing)
+  std::int64_t events() const { return collisions + wallCollisions + checks + exits; }
+};
+
+/// Accumulators of the collisional virial since resetPressureWindow().
+struct PressureWindow {
+  double virial = 0.0;           ///< sum over collisions of |r_ij| J (J m)
+  double kineticIntegral = 0.0;  ///< integral of the total kinetic energy over time (J s)
+  double duration = 0.0;         ///< s
+  std::int64_t collisions = 0;
+  /// p = PV / (N k_B T) = 1 + virial / (2 int K dt); NaN for an empty window.
+  double reducedPressure() const;
+};
+
+class HardSphereSystem {
+ public:
+  /// Hard spheres at the given centres (3 x N, inside the box), radii (N, > 0) and velocities (3 x N).
+  /// Throws ConfigError for inconsistent sizes, bad radii, centres outside the box or through a wall,
+  /// overlapping pairs (beyond 1e-12 relative) and boxes too small for the neighbourhoods.
+  HardSphereSystem(const Box& box, const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius,
+                   const Eigen::Matrix3Xd& velocity, SystemOptions options = {});
+  ~HardSphereSystem();
+  HardSphereSystem(const HardSphereSystem&) = delete;
+  HardSphereSystem& operator=(const HardSphereSystem&) = delete;
+
+  Index count() const { return static_cast<Index>(state_.size()); }
+  const Box& box() const { return box_; }
+  const SystemOptions& options() const { return options_; }
+
+  /// Relative growth rate g (1/s): dO_i/dt = g O_i(last synchronisation). Synchronises first.
+  void setGrowthRate(double relativeRate);
+  double growthRate() const { return growth_; }
+
+  /// Process events until `collisions` more binary collisions have happened or the clock has advanced by
+  /// `duration` (s), whichever comes first; the clock then stands at the last event or at the time limit.
+  /// Returns the counts of this call. Throws SimulationError from the watchdog (an unbounded collision
+  /// sequence: names the particle) or on an overlap beyond options().overlapLimit (names the pair).
+  EventCounts run(std::int64_t collisions, double duration = kInfinity);
+  /// Process the next event; false if nothing is scheduled. For tests and fine control.
+  bool step();
+  /// The next event of the schedule (time relative to the current clock origin).
+  Event nextEvent() const;
+
+  /// Advance every particle to the current time, fold the elapsed time into the radii, reset the clock
+  /// to 0 and re-predict every event (seed Algorithms 3-4). O(N x neighbours).
+  void synchronise();
+  /// Multiply all velocities by `factor` (synchronises; the thermostat).
+  void scaleVelocities(double factor);
+  /// Rescale velocities so that sqrt(sum m v^2 / sum m) = speed ("thermal speed"). Synchronises.
+  void setThermalSpeed(double speed);
+  /// Set all velocities (3 x N). Synchronises.
+  void setVelocities(const Eigen::Matrix3Xd& velocity);
+
+  /// Time since construction (s).
+  double time() const { return elapsed_ + clock_; }
+  /// Centres at the current time, wrapped into the box (3 x N).
+  Eigen::Matrix3Xd positions() const;
+  Eigen::Matrix3Xd velocities() const;
+  /// Radii at the current time (N).
+  Eigen::VectorXd radii() const;
+  /// Masses (N), proportional to r^3 with mean 1.
+  Eigen::VectorXd masses() const;
+  /// Total kinetic energy (tracked exactly through every collision).
+  double kineticEnergy() const { return kinetic_; }
+  /// sqrt(sum m v^2 / sum m).
+  double thermalSpeed() const;
+  Eigen::Vector3d momentum() const;
+  /// Sphere volume / box volume at the current time.
+  double packingFraction() const;
+  double largestRadius() const;
+  double smallestRadius() const;
+
+  /// Virial accumulators since the last reset (the pending part up to the current time included).
+  PressureWindow pressureWindow() const;
+  void resetPressureWindow();
+
+  const EventCounts& counts() const { return total_; }
+  /// Largest relative overlap (s - |r|) / s met at any collision so far (0 if none).
+  double maxOverlapSeen() const { return maxOverlap_; }
+  /// Description of the broad phase used for the neighbourhoods.
+  std::string describeBroadPhase() const;
+  /// Mean neighbour-list length.
+  double meanNeighbours() const;
+  /// Current skin floor f (see SystemOptions::skinFloor).
+  double skinFloor() const { return skinFloor_; }
+
+  /// Check every invariant (tests; O(N^2) for N <= 2000, else O(N x neighbours)): particles inside their
+  /// neighbourhoods, lists complete and symmetric, schedule symmetric, heap consistent, event times not
+  /// in the past, no overlap beyond `overlapTolerance` (relative). Throws std::logic_error.
+  void validate(double overlapTolerance = 1e-10) const;
+
+  static constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+ private:
+  struct alignas(64) State {
+    double x[3];  // position at local time t (not wrapped until the particle is advanced)
+    double t;     // local time
+    double v[3];
+    double r0;    // radius at clock 0
+  };
+
+  void sortSpatially();
+  Index external(Index i) const { return external_[static_cast<std::size_t>(i)]; }
+  void checkInput(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius,
+                  const Eigen::Matrix3Xd& velocity) const;
+  void advance(Index i);
+  void advanceAll();
+  void resetSchedule();
+  void rebuildNeighbourhoods();
+  void refreshNeighbourhood(Index i);
+  void predict(Index i);
+  double pairDelay(const State& si, Index j) const;
+  void collide(Index i, Index j);
+  void collideWithWall(Index i, int wall);
+  void process(Index i);
+  void flushKinetic();
+  [[noreturn]] void watchdogTrip(Index i) const;
+  double radiusAt(const State& s) const { return s.r0 + (growth_ * s.r0) * clock_; }
+  double wrapped(double d, int axis) const;  // one axis of the minimum image, branch-free
+  static bool keepEarlier(double tau, double tc, double horizon, double& best);
+  void minimumImage(double d[3]) const {
+    for (int k = 0; k < 3; ++k) {
+      if (!periodic_[k]) continue;
+      if (d[k] > half_[k]) {
+        d[k] -= length_[k];
+      } else if (d[k] < -half_[k]) {
+        d[k] += length_[k];
+      }
+    }
+  }
+
+  Box box_;
+  SystemOptions options_;
+  std::array<bool, 3> periodic_{};
+  std::array<double, 3> length_{}, half_{};
+  std::array<double, 3> wrap_{};  // length on periodic axes, 0 on walled ones
+  bool hasWalls_ = false;
+
+  std::vector<State> state_;
+  std::vector<Index> external_;  // internal slot -> caller's index
+  std::int64_t collisionsAtSort_ = 0;
+  double skinFloor_ = 1.0;  // current f
+  std::int64_t collisionsAtRebuild_ = 0, exitsAtRebuild_ = 0;
+  double exitRatioSinceRebuild() const;
+  double periodicLength() const;  // shortest periodic edge (inf if none)
+  Eigen::VectorXd mass_, inverseMass_;
+  std::vector<Event> event_;
+  EventQueue queue_;
+  double growth_ = 0.0;
+  double clock_ = 0.0;    // time since the last synchronisation
+  double elapsed_ = 0.0;  // time folded in at synchronisations
+
+  // Bounding neighbourhoods and near-neighbour lists. The lists live in one flat array, each with some
+  // spare room (a full list moves to a larger slot at the end; the array is compacted at the next global
+  // rebuild), so that the prediction loop reads the list of i from adjacent memory instead of chasing
+  // per-particle allocations.
+  struct alignas(64) Hood {
+    double centre[3];
+    double radius;  // rho
+    double skin;    // room rho - O at the last global rebuild
+    Index begin, size, capacity;
+  };
+  std::span<const Index> neighboursOf(Index i) const {
+    const Hood& h = hood_[static_cast<std::size_t>(i)];
+    return {nbData_.data() + h.begin, static_cast<std::size_t>(h.size)};
+  }
+  void insertNeighbour(Index i, Index j);
+  void relocateList(Index i, Index capacity);
+  void eraseNeighbour(Index i, Index j);
+  std::vector<Hood> hood_;
+  std::vector<Index> nbData_;
+  Eigen::Matrix3Xd nbCentre_;  // copies of hood_ centre and radius for the broad phase
+  Eigen::VectorXd nbRadius_;
+  std::vector<Index> added_, removed_;
+  std::unique_ptr<broadphase::BroadPhase> broad_;
+  std::vector<Index> scratch_;
+  std::vector<broadphase::Pair> pairScratch_;
+  bool rebuildPending_ = false;
+
+  // Kinetic energy and virial.
+  double kinetic_ = 0.0;
+  double kineticMark_ = 0.0;  // clock value up to which kinetic_ has been integrated
+  PressureWindow window_;
+  double maxOverlap_ = 0.0;
+
+  EventCounts total_;
+  // Watchdog.
+  std::vector<std::int64_t> collisionsInRun_;
+  std::int64_t watchdogLimit_ = std::numeric_limits<std::int64_t>::max();
+  std::int64_t sameTimeEvents_ = 0;
+  double lastEventTime_ = -1.0;
+  std::array<std::array<Index, 2>, 8> recent_{};
+  std::size_t recentNext_ = 0;
+};
+
+}  // namespace polydem::edmd

@@ -1,0 +1,279 @@
+#include "edmd/jamming_test.hpp"
+
+#include <array>
+#include <chrono>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "core/errors.hpp"
+
+#if POLYDEM_EDMD_WITH_GLPK
+#include <glpk.h>
+#endif
+
+namespace polydem::edmd {
+
+bool jammingTestAvailable() { return POLYDEM_EDMD_WITH_GLPK != 0; }
+
+#if POLYDEM_EDMD_WITH_GLPK
+
+namespace {
+
+struct Lp {
+  glp_prob* p = glp_create_prob();
+  ~Lp() { glp_delete_prob(p); }
+  Lp() = default;
+  Lp(const Lp&) = delete;
+  Lp& operator=(const Lp&) = delete;
+};
+
+// Rigidity matrix of the backbone: one row per contact (u . (dR_i - dR_j)), columns 3 b(i) + k.
+struct Rigidity {
+  std::vector<int> ia{0}, ja{0};  // GLPK arrays are 1-based
+  std::vector<double> ar{0.0};
+  int rows = 0, cols = 0;
+  std::vector<std::array<Index, 2>> pairs;  // backbone indices per row
+};
+
+int solve(glp_prob* p) {
+  glp_smcp parm;
+  glp_init_smcp(&parm);
+  parm.msg_lev = GLP_MSG_OFF;
+  parm.presolve = GLP_ON;
+  const int rc = glp_simplex(p, &parm);
+  if (rc != 0) throw SimulationError(fmt::format("jamming test: GLPK simplex failed (return code {})", rc));
+  return glp_get_status(p);
+}
+
+}  // namespace
+
+JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                        double tolerance, std::uint64_t seed) {
+  const auto start = std::chrono::steady_clock::now();
+  const Index n = spheres.count();
+  if (network.particles != n) {
+    throw ConfigError(fmt::format("jamming test: the contact network has {} particles, the packing {}",
+                                  network.particles, n));
+  }
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);
+  std::vector<Index> backbone;
+  for (Index i = 0; i < n; ++i) {
+    if (!network.rattler[static_cast<std::size_t>(i)]) {
+      slot[static_cast<std::size_t>(i)] = static_cast<int>(backbone.size());
+      backbone.push_back(i);
+    }
+  }
+  JammingTestResult result;
+  result.motion = Eigen::Matrix3Xd::Zero(3, n);
+  if (backbone.empty()) {
+    result.verdict = "unjammed: every sphere is a rattler";
+    return result;
+  }
+  Rigidity a;
+  a.cols = 3 * static_cast<int>(backbone.size());
+  for (const auto& c : network.contacts) {
+    const int bi = slot[static_cast<std::size_t>(c.i)], bj = slot[static_cast<std::size_t>(c.j)];
+    if (bi < 0 || bj < 0) continue;
+    const Eigen::Vector3d d = box.minimumImage(spheres.centre.col(c.i) - spheres.centre.col(c.j));
+    const Eigen::Vector3d u = d / d.norm();
+    ++a.rows;
+    for (int k = 0; k < 3; ++k) {
+      a.ia.push_back(a.rows);
+      a.ja.push_back(3 * bi + k + 1);
+      a.ar.push_back(u[k]);
+      a.ia.push_back(a.rows);
+      a.ja.push_back(3 * bj + k + 1);
+      a.ar.push_back(-u[k]);
+    }
+    a.pairs.push_back({bi, bj});
+  }
+  if (a.rows == 0) {
+    result.verdict = "unjammed: no contacts";
+    return result;
+  }
+  const int ne = static_cast<int>(a.ar.size()) - 1;
+  auto motionFrom = [&](glp_prob* p) {
+    for (std::size_t b = 0; b < backbone.size(); ++b)
+      for (int k = 0; k < 3; ++k) result.motion(k, backbone[b]) = glp_get_col_prim(p, static_cast<int>(3 * b) + k + 1);
+  };
+
+  // LP 1: open contacts. Objective = sum of rows = column sums of A.
+  {
+    Lp lp;
+    glp_set_obj_dir(lp.p, GLP_MAX);
+    glp_add_rows(lp.p, a.rows);
+    glp_add_cols(lp.p, a.cols);
+    for (int r = 1; r <= a.rows; ++r) glp_set_row_bnds(lp.p, r, GLP_DB, 0.0, 1.0);
+    std::vector<double> objective(static_cast<std::size_t>(a.cols) + 1, 0.0);
+    for (int e = 1; e <= ne; ++e) objective[static_cast<std::size_t>(a.ja[static_cast<std::size_t>(e)])] += a.ar[static_cast<std::size_t>(e)];
+    for (int c = 1; c <= a.cols; ++c) {
+      glp_set_col_bnds(lp.p, c, c <= 3 ? GLP_FX : GLP_FR, 0.0, 0.0);  // pin the first backbone sphere
+      glp_set_obj_coef(lp.p, c, objective[static_cast<std::size_t>(c)]);
+    }
+    glp_load_matrix(lp.p, ne, a.ia.data(), a.ja.data(), a.ar.data());
+    const int status = solve(lp.p);
+    if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: opening LP status {}", status));
+    result.openingObjective = glp_get_obj_val(lp.p);
+    // Any opening motion can be scaled until some contact opens at rate 1, so a non-zero optimum is >= 1.
+    if (result.openingObjective > 0.5) {
+      for (int r = 1; r <= a.rows; ++r) result.contactsOpened += glp_get_row_prim(lp.p, r) > 1e-6 ? 1 : 0;
+      motionFrom(lp.p);
+      result.verdict = fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
+    }
+  }
+  // LP 2: floppy modes, keeping every contact.
+  if (result.verdict.empty()) {
+    Lp lp;
+    glp_set_obj_dir(lp.p, GLP_MAX);
+    glp_add_rows(lp.p, a.rows);
+    glp_add_cols(lp.p, a.cols);
+    for (int r = 1; r <= a.rows; ++r) glp_set_row_bnds(lp.p, r, GLP_FX, 0.0, 0.0);
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+    for (int c = 1; c <= a.cols; ++c) {
+      if (c <= 3) {
+        glp_set_col_bnds(lp.p, c, GLP_FX, 0.0, 0.0);
+      } else {
+        glp_set_col_bnds(lp.p, c, GLP_DB, -1.0, 1.0);
+      }
+      glp_set_obj_coef(lp.p, c, uniform(rng));
+    }
+    glp_load_matrix(lp.p, ne, a.ia.data(), a.ja.data(), a.ar.data());
+    const int status = solve(lp.p);
+    if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: floppy-mode LP status {}", status));
+    result.floppyObjective = glp_get_obj_val(lp.p);
+    if (result.floppyObjective > tolerance * a.cols) {
+      motionFrom(lp.p);
+      result.verdict = "unjammed: floppy modes (a motion keeps every contact)";
+    }
+  }
+  if (result.verdict.empty()) {
+    result.jammed = true;
+    result.verdict = fmt::format("jammed (collectively, first order: {} backbone spheres, {} contacts)",
+                                 backbone.size(), a.rows);
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                    const LoadTestOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const Index n = spheres.count();
+  if (network.particles != n) {
+    throw ConfigError(fmt::format("jamming test: the contact network has {} particles, the packing {}",
+                                  network.particles, n));
+  }
+  LoadTestResult result;
+  result.motion = Eigen::Matrix3Xd::Zero(3, n);
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);
+  std::vector<Index> backbone;
+  for (Index i = 0; i < n; ++i) {
+    if (!network.rattler[static_cast<std::size_t>(i)]) {
+      slot[static_cast<std::size_t>(i)] = static_cast<int>(backbone.size());
+      backbone.push_back(i);
+    }
+  }
+  if (backbone.size() < 2) {
+    result.verdict = "unjammed: no backbone";
+    return result;
+  }
+  const double diameter = 2.0 * spheres.radius.mean();
+  // Constraints: every backbone pair within the gap tolerance.
+  ContactOptions near;
+  near.relativeGap = options.gapTolerance;
+  const ContactNetwork wide = analyseContacts(spheres, box, near);
+  std::vector<int> ia{0}, ja{0};
+  std::vector<double> ar{0.0}, gap;
+  int rows = 0;
+  for (const auto& c : wide.contacts) {
+    const int bi = slot[static_cast<std::size_t>(c.i)], bj = slot[static_cast<std::size_t>(c.j)];
+    if (bi < 0 || bj < 0) continue;
+    const Eigen::Vector3d d = box.minimumImage(spheres.centre.col(c.i) - spheres.centre.col(c.j));
+    const double dist = d.norm();
+    const Eigen::Vector3d u = d / dist;
+    ++rows;
+    for (int k = 0; k < 3; ++k) {
+      ia.push_back(rows);
+      ja.push_back(3 * bi + k + 1);
+      ar.push_back(u[k]);
+      ia.push_back(rows);
+      ja.push_back(3 * bj + k + 1);
+      ar.push_back(-u[k]);
+    }
+    gap.push_back(std::max(0.0, dist - (spheres.radius[c.i] + spheres.radius[c.j])) / diameter);
+  }
+  result.constraints = rows;
+  const int cols = 3 * static_cast<int>(backbone.size());
+  std::mt19937_64 rng(options.seed);
+  std::normal_distribution<double> normal;
+  double worst = -1.0;
+  for (int load = 0; load < options.loads; ++load) {
+    std::vector<double> b(static_cast<std::size_t>(cols));
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int c = 0; c < cols; ++c) {
+      b[static_cast<std::size_t>(c)] = normal(rng);
+      mean[c % 3] += b[static_cast<std::size_t>(c)];
+    }
+    mean /= static_cast<double>(backbone.size());
+    for (int c = 0; c < cols; ++c) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
+    for (double sign : {1.0, -1.0}) {
+      Lp lp;
+      glp_set_obj_dir(lp.p, GLP_MAX);
+      if (rows > 0) glp_add_rows(lp.p, rows);
+      glp_add_cols(lp.p, cols);
+      for (int r = 1; r <= rows; ++r) glp_set_row_bnds(lp.p, r, GLP_LO, -gap[static_cast<std::size_t>(r - 1)], 0.0);
+      for (int c = 1; c <= cols; ++c) {
+        // The first backbone sphere is pinned against the trivial translations.
+        if (c <= 3) {
+          glp_set_col_bnds(lp.p, c, GLP_FX, 0.0, 0.0);
+        } else {
+          glp_set_col_bnds(lp.p, c, GLP_DB, -options.maxDisplacement, options.maxDisplacement);
+        }
+        glp_set_obj_coef(lp.p, c, sign * b[static_cast<std::size_t>(c - 1)]);
+      }
+      if (rows > 0) glp_load_matrix(lp.p, static_cast<int>(ar.size()) - 1, ia.data(), ja.data(), ar.data());
+      const int status = solve(lp.p);
+      if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: load LP status {}", status));
+      double largest = 0.0;
+      Index displaced = 0;
+      Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
+      for (std::size_t bb = 0; bb < backbone.size(); ++bb) {
+        Eigen::Vector3d dr;
+        for (int k = 0; k < 3; ++k) dr[k] = glp_get_col_prim(lp.p, static_cast<int>(3 * bb) + k + 1);
+        largest = std::max(largest, dr.norm());
+        displaced += dr.norm() > options.displacementLimit ? 1 : 0;
+        motion.col(backbone[bb]) = dr * diameter;
+      }
+      if (largest > worst) {
+        worst = largest;
+        result.displaced = displaced;
+        result.motion = motion;
+      }
+    }
+  }
+  result.largestDisplacement = worst;
+  result.jammed = worst <= options.displacementLimit;
+  result.verdict = result.jammed
+                       ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
+                                     options.displacementLimit, 2 * options.loads)
+                       : fmt::format("unjammed: a load moves {} spheres by more than {:.1e} D (up to {:.3g} D)",
+                                     result.displaced, options.displacementLimit, worst);
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+#else
+
+LoadTestResult testJammingUnderLoad(const SphereView&, const Box&, const ContactNetwork&, const LoadTestOptions&) {
+  throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
+}
+
+JammingTestResult testCollectiveJamming(const SphereView&, const Box&, const ContactNetwork&, double, std::uint64_t) {
+  throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
+}
+
+#endif
+
+}  // namespace polydem::edmd

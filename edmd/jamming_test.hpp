@@ -1,0 +1,70 @@
+#pragma once
+// Linear-programming test of collective (first-order) jamming of a sphere packing, with GLPK.
+//
+// Seed 001 ch. 4-5 (shared/seeds/001_3d36564c50aaa2ef.txt; digest §3.1-3.4): a packing is jammed iff no
+// non-trivial velocities V satisfy (v_i - v_j) . u_ij >= 0 for every contact (eq. 4.1, :4174-4190), and
+// for spheres first-order jamming is the same as jamming (:7291-7311). By Stiemke's lemma the motions
+// split into two linear programs on the backbone (rattlers removed, one sphere pinned against the
+// trivial translations, periodic box with the lattice fixed = collective jamming):
+//   1. opening:  max sum_c s_c  over dR,  s_c = u_c . (dR_i - dR_j) in [0, 1]
+//      > 0 <=> a motion opens some contact <=> no strict self-stress (A f = 0, f > 0) exists;
+//   2. floppy:   max w . dR     over dR in [-1, 1]^3N', u_c . (dR_i - dR_j) = 0 for every contact, random w
+//      > 0 <=> a motion keeps every contact <=> A is rank deficient beyond the translations.
+// Jammed iff both optima vanish. Contacts are treated as exact (gaps h = 0): the non-randomised test
+// for ideal packings, eq. 4.11 (:4573-4597), appropriate at p >= 1e10 where gaps are ~1e-10 D and below
+// what the LP could resolve anyway (:11163-11166). Strict jamming (box deformation) is not tested.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/box.hpp"
+#include "edmd/contact_network.hpp"
+
+namespace polydem::edmd {
+
+struct JammingTestResult {
+  bool jammed = false;
+  std::string verdict;          ///< "jammed", "unjammed: opens contacts", "unjammed: floppy modes", ...
+  double openingObjective = 0;  ///< optimum of LP 1 (sum of opened contact rates)
+  double floppyObjective = 0;   ///< optimum of LP 2
+  Index contactsOpened = 0;     ///< contacts with s_c > tolerance in the LP-1 motion
+  Eigen::Matrix3Xd motion;      ///< unjamming motion (3 x N, zero for rattlers) if not jammed
+  double seconds = 0.0;
+};
+
+/// The randomised load test of seed 001 (eq. 4.10, :4522-4569; Algorithm 13 without its rattler LP):
+/// every backbone pair with gap h <= gapTolerance (r_i + r_j) is a linearised constraint
+/// u_ij . (dR_i - dR_j) >= -h_ij (feasible for the true constraints too, :4319-4388); a random load B with
+/// zero net force is applied, max B . dR over |dR_k| <= maxDisplacement, then -B. The packing is jammed if
+/// no sphere moves by more than `displacementLimit` under `loads` loads and their opposites. Lengths in
+/// units of the mean diameter.
+struct LoadTestOptions {
+  double gapTolerance = 0.05;
+  double displacementLimit = 1e-3;
+  double maxDisplacement = 10.0;
+  int loads = 2;
+  std::uint64_t seed = 1;
+};
+struct LoadTestResult {
+  bool jammed = false;
+  std::string verdict;
+  double largestDisplacement = 0.0;  ///< in mean diameters, over all loads
+  Index displaced = 0;               ///< spheres moved beyond the limit by the worst load
+  Index constraints = 0;
+  Eigen::Matrix3Xd motion;           ///< the worst load's displacement (3 x N, length units)
+  double seconds = 0.0;
+};
+LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                    const LoadTestOptions& options = {});
+
+/// True if this build has GLPK.
+bool jammingTestAvailable();
+
+/// Run the test on the backbone of `network` (spheres as analysed). `tolerance` is the relative size of
+/// an optimum that counts as non-zero. Throws ConfigError if GLPK is missing or the backbone is empty.
+JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                        double tolerance = 1e-9, std::uint64_t seed = 1);
+
+}  // namespace polydem::edmd

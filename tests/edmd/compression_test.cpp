@@ -1,0 +1,200 @@
+// Lubachevsky-Stillinger compression of small packings to jamming, and the contact network analysis.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/errors.hpp"
+#include "core/initial_configuration.hpp"
+#include "core/size_distribution.hpp"
+#include "edmd/compression.hpp"
+#include "edmd/contact_network.hpp"
+#include "edmd/hard_sphere_system.hpp"
+#include "edmd/jamming_test.hpp"
+
+namespace polydem::edmd {
+namespace {
+
+Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  Eigen::Matrix3Xd v(3, radius.size());
+  for (Eigen::Index i = 0; i < radius.size(); ++i)
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::pow(radius[i], 1.5);
+  return v;
+}
+
+struct JamResult {
+  double phi, pressure;
+  ContactNetwork net;
+  std::int64_t collisions;
+  Box box;
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd r;
+};
+
+JamResult jam(const std::vector<double>& radii, const std::string& schedule, double pressure, std::uint64_t seed) {
+  PackingRequest request;
+  request.radii = radii;
+  request.packingFraction = 0.3;
+  request.seed = seed;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(c.radius, seed));
+  CompressionOptions options;
+  options.schedule = parseSchedule(schedule);
+  options.targetPressure = pressure;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "pressure");
+  system.validate(1e-12);
+  const Eigen::Matrix3Xd x = system.positions();
+  const Eigen::VectorXd radius = system.radii();
+  ContactOptions contact;
+  contact.relativeGap = defaultContactGap(r.last.pressure);
+  return {system.packingFraction(), r.last.pressure, analyseContacts(SphereView{x, radius}, c.box, contact),
+          r.counts.collisions, c.box, x, radius};
+}
+
+TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
+  // 200 spheres, fast then slow growth (a decade slower per few decades of pressure) to p = 1e8:
+  // random close packing, ~2-3% rattlers, and an isostatic backbone (M = 3N' - 2 within a few contacts).
+  const JamResult r = jam(std::vector<double>(200, 1.0), "1e-2:1e2,1e-3:1e4,2e-4", 1e8, 1);
+  EXPECT_GE(r.pressure, 1e8);
+  EXPECT_GT(r.phi, 0.625);
+  EXPECT_LT(r.phi, 0.66);
+  EXPECT_LT(r.net.rattlerFraction(), 0.06);
+  EXPECT_NEAR(r.net.backboneCoordination(), 6.0, 0.06);
+  EXPECT_LE(std::abs(r.net.isostaticExcess()), 4);
+  EXPECT_LT(r.net.maxOverlap, 1e-12);
+  if (!jammingTestAvailable()) GTEST_SKIP() << "no GLPK";
+  // Certification: no random load moves a backbone sphere; taking a backbone sphere out unjams its
+  // neighbourhood (an unjamming motion appears).
+  const SphereView spheres{r.x, r.r};
+  const LoadTestResult jammed = testJammingUnderLoad(spheres, r.box, r.net);
+  EXPECT_TRUE(jammed.jammed) << jammed.verdict;
+  ContactNetwork holed = r.net;
+  Index victim = 0;
+  while (holed.rattler[static_cast<std::size_t>(victim)]) ++victim;
+  holed.rattler[static_cast<std::size_t>(victim)] = 1;
+  const LoadTestResult unjammed = testJammingUnderLoad(spheres, r.box, holed);
+  EXPECT_FALSE(unjammed.jammed) << unjammed.verdict;
+  EXPECT_GT(unjammed.displaced, 0);
+}
+
+TEST(Compression, SmallBidispersePackingJams) {
+  // Equal-volume bidisperse mixture, size ratio 1.4 (no crystallisation): denser than monodisperse, and
+  // again six contacts per backbone sphere.
+  std::vector<double> radii(250);
+  for (std::size_t i = 0; i < radii.size(); ++i) radii[i] = i % 2 ? 1.4 : 1.0;
+  const JamResult r = jam(radii, "1e-2:1e2,1e-3:1e4,2e-4", 1e8, 2);
+  EXPECT_GT(r.phi, 0.63);
+  EXPECT_LT(r.phi, 0.68);
+  EXPECT_NEAR(r.net.backboneCoordination(), 6.0, 0.08);
+  EXPECT_LT(r.net.rattlerFraction(), 0.08);
+}
+
+TEST(Compression, StopsAtTargetPackingFraction) {
+  PackingRequest request;
+  request.radii = std::vector<double>(150, 1.0);
+  request.packingFraction = 0.25;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(c.radius, 3));
+  CompressionOptions options;
+  options.schedule = {{3e-3}};
+  options.targetPackingFraction = 0.52;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "packing fraction");
+  EXPECT_NEAR(system.packingFraction(), 0.52, 1e-12);
+  EXPECT_EQ(system.growthRate(), 0.0);
+  EXPECT_NEAR(system.thermalSpeed(), 1.0, 1e-12);
+  system.validate(1e-12);
+}
+
+TEST(Compression, RejectsBadSchedulesAndTargets) {
+  EXPECT_THROW(parseSchedule(""), ConfigError);
+  EXPECT_THROW(parseSchedule("fast"), ConfigError);
+  EXPECT_THROW(parseSchedule("1e-3:1e4,1e-4:1e3"), ConfigError);
+  EXPECT_THROW(parseSchedule("-1e-3"), ConfigError);
+  const auto s = parseSchedule("1e-3:1e4,1e-4:1e6,1e-5");
+  ASSERT_EQ(s.size(), 3u);
+  EXPECT_EQ(s[1].rate, 1e-4);
+  EXPECT_EQ(s[1].untilPressure, 1e6);
+  EXPECT_TRUE(std::isinf(s[2].untilPressure));
+  EXPECT_EQ(formatSchedule(s), "0.001:10000,0.0001:1e+06,1e-05");
+  PackingRequest request;
+  request.radii = std::vector<double>(50, 1.0);
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(c.radius, 1));
+  CompressionOptions options;
+  options.targetPackingFraction = 0.2;  // below the current one
+  EXPECT_THROW(compress(system, options), ConfigError);
+}
+
+TEST(Compression, JammingDensityEstimate) {
+  EXPECT_DOUBLE_EQ(jammingDensityEstimate(0.6, 30.0), 0.6 / 0.9);
+  EXPECT_TRUE(std::isnan(jammingDensityEstimate(0.3, 2.0)));
+}
+
+TEST(ContactNetwork, SimpleCubicLatticeAndARattler) {
+  // 4 x 4 x 4 simple cubic lattice of touching unit spheres in a periodic box of 8: six contacts each.
+  const int m = 4;
+  Eigen::Matrix3Xd x(3, m * m * m + 1);
+  Eigen::VectorXd r = Eigen::VectorXd::Ones(m * m * m + 1);
+  int k = 0;
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b)
+      for (int c = 0; c < m; ++c) x.col(k++) = Eigen::Vector3d(1 + 2 * a, 1 + 2 * b, 1 + 2 * c);
+  // A small sphere in the body centre of one cube touching nothing.
+  x.col(k) = Eigen::Vector3d(2, 2, 2);
+  r[k] = 0.5;
+  const Box box = Box::cubic(8.0, Boundary::Periodic);
+  const ContactNetwork net = analyseContacts(SphereView{x, r}, box, ContactOptions{.relativeGap = 1e-9});
+  EXPECT_EQ(net.contacts.size(), 3u * m * m * m);
+  EXPECT_EQ(net.backbone, m * m * m);
+  EXPECT_EQ(net.rattler[static_cast<std::size_t>(k)], 1);
+  EXPECT_DOUBLE_EQ(net.backboneCoordination(), 6.0);
+  EXPECT_EQ(net.isostaticExcess(), 2);
+  // Removing one lattice sphere's contacts cascades nothing (neighbours keep 5 >= 4 contacts).
+  Eigen::VectorXd shrunk = r;
+  shrunk[0] = 0.9;
+  const ContactNetwork hole = analyseContacts(SphereView{x, shrunk}, box, ContactOptions{.relativeGap = 1e-9});
+  EXPECT_EQ(hole.backbone, m * m * m - 1);
+  EXPECT_EQ(hole.contacts.size(), 3u * m * m * m - 6);
+}
+
+TEST(JammingTest, LatticesOfTheSeed) {
+  if (!jammingTestAvailable()) GTEST_SKIP() << "no GLPK";
+  // FCC is collectively jammed, simple cubic is not (seed 001 Table 4.1, :5854-5935).
+  auto lattice = [](bool fcc, int m, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
+    const double a = fcc ? 2.0 * std::sqrt(2.0) : 2.0;
+    const std::vector<Eigen::Vector3d> basis =
+        fcc ? std::vector<Eigen::Vector3d>{{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}}
+            : std::vector<Eigen::Vector3d>{{0, 0, 0}};
+    x.resize(3, m * m * m * static_cast<int>(basis.size()));
+    int k = 0;
+    for (int i = 0; i < m; ++i)
+      for (int j = 0; j < m; ++j)
+        for (int l = 0; l < m; ++l)
+          for (const auto& b : basis) x.col(k++) = a * (Eigen::Vector3d(i, j, l) + b) + Eigen::Vector3d::Constant(0.1);
+    r = Eigen::VectorXd::Ones(k);
+    return Box::cubic(m * a, Boundary::Periodic);
+  };
+  for (bool fcc : {true, false}) {
+    SCOPED_TRACE(fcc ? "fcc" : "sc");
+    Eigen::Matrix3Xd x;
+    Eigen::VectorXd r;
+    const Box box = lattice(fcc, fcc ? 3 : 4, x, r);
+    const SphereView spheres{x, r};
+    const ContactNetwork net = analyseContacts(spheres, box, ContactOptions{.relativeGap = 1e-9});
+    EXPECT_EQ(testCollectiveJamming(spheres, box, net).jammed, fcc);
+    EXPECT_EQ(testJammingUnderLoad(spheres, box, net).jammed, fcc);
+  }
+}
+
+TEST(ContactNetwork, DefaultGapFollowsPressure) {
+  EXPECT_NEAR(defaultContactGap(1e12), std::sqrt(1e-15), 1e-20);
+  EXPECT_DOUBLE_EQ(defaultContactGap(1e6), 1e-4);
+  EXPECT_DOUBLE_EQ(defaultContactGap(10.0), 1e-3);
+}
+
+}  // namespace
+}  // namespace polydem::edmd

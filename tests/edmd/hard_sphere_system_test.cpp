@@ -1,0 +1,286 @@
+// The event-driven engine: closed-form 2- and 3-sphere cases, periodic wrap, walls, conservation laws,
+// invariants under growth, backend independence, the watchdog and input checks.
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "core/errors.hpp"
+#include "core/initial_configuration.hpp"
+#include "edmd/compression.hpp"
+#include "edmd/hard_sphere_system.hpp"
+
+namespace polydem::edmd {
+namespace {
+
+Eigen::Matrix3Xd columns(std::initializer_list<Eigen::Vector3d> list) {
+  Eigen::Matrix3Xd m(3, static_cast<Eigen::Index>(list.size()));
+  Eigen::Index k = 0;
+  for (const auto& v : list) m.col(k++) = v;
+  return m;
+}
+
+Eigen::Matrix3Xd randomVelocities(Index n, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal;
+  Eigen::Matrix3Xd v(3, n);
+  for (Index i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng);
+  const Eigen::Vector3d mean = v.rowwise().mean();
+  v.colwise() -= mean;
+  return v;
+}
+
+// Random sequential addition of n spheres (radii from `radii`, or mono radius 1).
+Configuration randomPacking(Index n, double phi, std::uint64_t seed, std::vector<double> radii = {},
+                            std::array<Boundary, 3> boundaries = {Boundary::Periodic, Boundary::Periodic,
+                                                                  Boundary::Periodic}) {
+  PackingRequest request;
+  request.radii = radii.empty() ? std::vector<double>(static_cast<std::size_t>(n), 1.0) : radii;
+  request.packingFraction = phi;
+  request.seed = seed;
+  request.boundaries = boundaries;
+  return randomSequentialAddition(request);
+}
+
+EventCounts runUntil(HardSphereSystem& system, double time) { return system.run(1'000'000'000, time - system.time()); }
+
+TEST(HardSphereSystem, TwoSpheresHeadOn) {
+  // Radii 0.5 at x = 2 and 5 closing at 2: gap 2, contact at t = 1; equal masses swap velocities.
+  const Box box = Box::cubic(10.0, Boundary::Periodic);
+  HardSphereSystem system(box, columns({{2, 5, 5}, {5, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
+                          columns({{1, 0, 0}, {-1, 0, 0}}));
+  const Event first = system.nextEvent();
+  // The first event may be a neighbourhood exit or check; run to just past the collision.
+  (void)first;
+  const EventCounts c = system.run(1);
+  EXPECT_EQ(c.collisions, 1);
+  EXPECT_NEAR(system.time(), 1.0, 1e-14);
+  const Eigen::Matrix3Xd v = system.velocities();
+  EXPECT_NEAR(v(0, 0), -1.0, 1e-14);
+  EXPECT_NEAR(v(0, 1), 1.0, 1e-14);
+  const Eigen::Matrix3Xd x = system.positions();
+  EXPECT_NEAR(x(0, 1) - x(0, 0), 1.0, 1e-14);
+  system.validate();
+}
+
+TEST(HardSphereSystem, TwoGrowingSpheresAtRest) {
+  // Radii 0.5 growing at the relative rate g: contact when (1 + g t) = 3, t = 2/g. At rest, the growth
+  // alone closes the gap at sd = g (0.5 + 0.5); the elastic rule sends them apart with surface speed sd,
+  // i.e. each centre at sd (relative speed 2 sd).
+  const double g = 0.25;
+  const Box box = Box::cubic(12.0, Boundary::Periodic);
+  HardSphereSystem system(box, columns({{3, 6, 6}, {6, 6, 6}}), Eigen::Vector2d(0.5, 0.5),
+                          Eigen::Matrix3Xd::Zero(3, 2));
+  system.setGrowthRate(g);
+  const EventCounts c = system.run(1);
+  ASSERT_EQ(c.collisions, 1);
+  EXPECT_NEAR(system.time(), 2.0 / g, 1e-12);
+  const double sd = g * 1.0;
+  const Eigen::Matrix3Xd v = system.velocities();
+  EXPECT_NEAR(v(0, 0), -sd, 1e-14);
+  EXPECT_NEAR(v(0, 1), sd, 1e-14);
+  // Radii at contact: 1.5 each.
+  EXPECT_NEAR(system.radii()[0], 1.5, 1e-14);
+  system.validate();
+}
+
+TEST(HardSphereSystem, ThreeSphereCradle) {
+  // A (x = 1) moves at 1 towards B (x = 3) and C (x = 5), radii 0.5: A hits B at t = 1, B hits C at t = 2;
+  // then only C moves, at 1.
+  const Box box = Box::cubic(20.0, Boundary::Periodic);
+  HardSphereSystem system(box, columns({{1, 10, 10}, {3, 10, 10}, {5, 10, 10}}), Eigen::Vector3d(0.5, 0.5, 0.5),
+                          columns({{1, 0, 0}, {0, 0, 0}, {0, 0, 0}}));
+  system.run(1);
+  EXPECT_NEAR(system.time(), 1.0, 1e-14);
+  system.run(1);
+  EXPECT_NEAR(system.time(), 2.0, 1e-14);
+  const Eigen::Matrix3Xd v = system.velocities();
+  EXPECT_NEAR(v(0, 0), 0.0, 1e-14);
+  EXPECT_NEAR(v(0, 1), 0.0, 1e-14);
+  EXPECT_NEAR(v(0, 2), 1.0, 1e-14);
+  // Nothing else happens: C flies off (periodically it would come back after 20 - ... at t = 2 + 13).
+  runUntil(system, 10.0);
+  EXPECT_EQ(system.counts().collisions, 2);
+  system.validate();
+}
+
+TEST(HardSphereSystem, CollisionThroughThePeriodicBoundary) {
+  // x = 0.6 moving down and x = 9.4 moving up in a box of 10: gap through the boundary 0.2, closing at 2.
+  const Box box = Box::cubic(10.0, Boundary::Periodic);
+  HardSphereSystem system(box, columns({{0.6, 5, 5}, {9.4, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
+                          columns({{-1, 0, 0}, {1, 0, 0}}));
+  system.run(1);
+  EXPECT_NEAR(system.time(), 0.1, 1e-14);
+  EXPECT_NEAR(system.velocities()(0, 0), 1.0, 1e-14);
+  // Positions stay wrapped into [0, L).
+  runUntil(system, 7.3);
+  const Eigen::Matrix3Xd x = system.positions();
+  EXPECT_TRUE((x.array() >= 0.0).all() && (x.array() < 10.0).all());
+  system.validate();
+}
+
+TEST(HardSphereSystem, HardWalls) {
+  // One sphere of radius 0.5 between walls at 0 and 4 along x: bounces every (4 - 1) / 1 = 3.
+  const Box box(Eigen::Vector3d(4.0, 10.0, 10.0), {Boundary::Wall, Boundary::Periodic, Boundary::Periodic});
+  HardSphereSystem system(box, columns({{2, 5, 5}}), Eigen::VectorXd::Constant(1, 0.5), columns({{1, 0, 0}}));
+  runUntil(system, 1.5 + 3.0 * 10 + 0.1);
+  EXPECT_EQ(system.counts().wallCollisions, 11);
+  EXPECT_NEAR(std::abs(system.velocities()(0, 0)), 1.0, 1e-14);
+  EXPECT_NEAR(system.kineticEnergy(), 0.5 * system.masses()[0], 1e-14);
+  // A sphere may not start through a wall.
+  EXPECT_THROW(HardSphereSystem(box, columns({{0.2, 5, 5}}), Eigen::VectorXd::Constant(1, 0.5), columns({{1, 0, 0}})),
+               ConfigError);
+}
+
+TEST(HardSphereSystem, WallsContainAGrowingGas) {
+  const Configuration c = randomPacking(150, 0.3, 4, {}, {Boundary::Wall, Boundary::Wall, Boundary::Periodic});
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(150, 4));
+  system.setGrowthRate(0.002);
+  for (int block = 0; block < 10; ++block) {
+    system.run(3000);
+    system.validate(1e-10);
+    system.setThermalSpeed(1.0);
+  }
+  EXPECT_GT(system.counts().wallCollisions, 0);
+  EXPECT_GT(system.packingFraction(), 0.33);
+  const Eigen::Matrix3Xd x = system.positions();
+  const Eigen::VectorXd r = system.radii();
+  for (Index i = 0; i < 150; ++i) {
+    for (int k = 0; k < 2; ++k) {
+      EXPECT_GE(x(k, i) - r[i], -1e-12);
+      EXPECT_GE(c.box.length(k) - x(k, i) - r[i], -1e-12);
+    }
+  }
+}
+
+TEST(HardSphereSystem, ConservesEnergyAndMomentumWithoutGrowth) {
+  const Index n = 300;
+  const Configuration c = randomPacking(n, 0.3, 11);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(n, 11));
+  const double k0 = system.kineticEnergy();
+  const Eigen::Vector3d p0 = system.momentum();
+  const EventCounts counts = system.run(200'000);
+  EXPECT_EQ(counts.collisions, 200'000);
+  EXPECT_GT(counts.exits, 0);
+  system.validate(1e-12);
+  // Tracked and recomputed energy both conserved to round-off.
+  EXPECT_NEAR(system.kineticEnergy() / k0, 1.0, 1e-12);
+  system.synchronise();
+  EXPECT_NEAR(system.kineticEnergy() / k0, 1.0, 1e-12);
+  EXPECT_LT((system.momentum() - p0).norm(), 1e-11 * std::sqrt(2.0 * k0 * n));
+  EXPECT_LT(system.maxOverlapSeen(), 1e-13);
+}
+
+TEST(HardSphereSystem, EventTimesNeverDecrease) {
+  const Index n = 200;
+  const Configuration c = randomPacking(n, 0.3, 5);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(n, 5));
+  system.setGrowthRate(0.01);
+  double last = system.time();
+  for (int k = 0; k < 50'000; ++k) {
+    ASSERT_TRUE(system.step());
+    ASSERT_GE(system.time(), last);
+    last = system.time();
+    if (k % 10'000 == 0) system.validate(1e-10);
+  }
+}
+
+TEST(HardSphereSystem, PolydisperseGrowthKeepsInvariants) {
+  // Uniform-volume-like radii 1..5, fast growth, global rebuilds and exits: all invariants hold.
+  const Index n = 400;
+  std::vector<double> radii(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) radii[static_cast<std::size_t>(i)] = 1.0 / std::sqrt(1.0 - 0.96 * (i + 0.5) / n);
+  const Configuration c = randomPacking(n, 0.3, 9, radii);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(n, 9));
+  const Eigen::VectorXd r0 = system.radii();
+  system.setGrowthRate(0.05);
+  for (int block = 0; block < 20; ++block) {
+    system.run(5000);
+    system.validate(1e-10);
+    system.setThermalSpeed(1.0);
+  }
+  EXPECT_GT(system.counts().rebuilds, 1);
+  EXPECT_GT(system.packingFraction(), 0.4);
+  // Growth keeps the size distribution's shape: every radius scaled by the same factor.
+  const Eigen::VectorXd ratio = system.radii().array() / r0.array();
+  EXPECT_NEAR(ratio.maxCoeff() / ratio.minCoeff(), 1.0, 1e-12);
+}
+
+TEST(HardSphereSystem, TrajectoryIndependentOfBroadPhase) {
+  const Index n = 250;
+  const Configuration c = randomPacking(n, 0.3, 21);
+  const Eigen::Matrix3Xd v = randomVelocities(n, 21);
+  Eigen::Matrix3Xd reference;
+  for (const char* backend : {"hgrid-td", "linked-cell", "brute", "hgrid-bu"}) {
+    SCOPED_TRACE(backend);
+    SystemOptions options;
+    options.broadPhase = backend;
+    HardSphereSystem system(c.box, c.position, c.radius, v, options);
+    system.setGrowthRate(0.003);
+    for (int block = 0; block < 5; ++block) {
+      system.run(4000);
+      system.setThermalSpeed(1.0);
+    }
+    if (reference.size() == 0) {
+      reference = system.positions();
+    } else {
+      EXPECT_EQ(system.positions(), reference);
+    }
+  }
+}
+
+TEST(HardSphereSystem, PressureMatchesCarnahanStarling) {
+  // Monodisperse fluid at phi = 0.45: Z_CS = (1 + phi + phi^2 - phi^3) / (1 - phi)^3 = 9.385.
+  const Index n = 500;
+  const Configuration c = randomPacking(n, 0.3, 13);
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(n, 13));
+  CompressionOptions options;
+  options.schedule = {{1e-2}};
+  options.targetPackingFraction = 0.45;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "packing fraction");
+  EXPECT_NEAR(system.packingFraction(), 0.45, 1e-12);
+  runAtFixedDensity(system, 50);  // equilibrate
+  const EquilibriumRun eq = runAtFixedDensity(system, 400);
+  const double phi = 0.45;
+  const double cs = (1 + phi + phi * phi - phi * phi * phi) / std::pow(1 - phi, 3);
+  EXPECT_NEAR(eq.pressure / cs, 1.0, 0.02);
+}
+
+TEST(HardSphereSystem, WatchdogNamesTheParticle) {
+  const Index n = 100;
+  const Configuration c = randomPacking(n, 0.3, 3);
+  SystemOptions options;
+  options.watchdogFactor = 0.0;
+  options.watchdogSlack = 5;  // absurdly tight: any particle with more than 5 collisions trips it
+  HardSphereSystem system(c.box, c.position, c.radius, randomVelocities(n, 3), options);
+  try {
+    system.run(10'000);
+    FAIL() << "expected SimulationError";
+  } catch (const SimulationError& e) {
+    EXPECT_NE(std::string(e.what()).find("watchdog: particle"), std::string::npos) << e.what();
+  }
+}
+
+TEST(HardSphereSystem, RejectsBadInput) {
+  const Box box = Box::cubic(10.0, Boundary::Periodic);
+  // Overlap.
+  EXPECT_THROW(HardSphereSystem(box, columns({{2, 5, 5}, {2.9, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
+                                Eigen::Matrix3Xd::Zero(3, 2)),
+               ConfigError);
+  // A sphere wider than a quarter of the box: periodic images would be ambiguous.
+  EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, 2.6), Eigen::Matrix3Xd::Zero(3, 1)),
+               ConfigError);
+  // Size mismatch and bad radius.
+  EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::Vector2d(0.5, 0.5), Eigen::Matrix3Xd::Zero(3, 1)),
+               ConfigError);
+  EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, -1.0), Eigen::Matrix3Xd::Zero(3, 1)),
+               ConfigError);
+  // Touching within round-off is fine.
+  EXPECT_NO_THROW(HardSphereSystem(box, columns({{2, 5, 5}, {3, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
+                                   Eigen::Matrix3Xd::Zero(3, 2)));
+}
+
+}  // namespace
+}  // namespace polydem::edmd
