@@ -62,69 +62,72 @@ inline Vec3 tangentialForce(const CundallStrack::Params& p, const NormalForce& n
   return ft;
 }
 
-}  // namespace detail
-
+/// What both pair loops read, copied out of the context once, and the work per particle and per pair.
+/// Each loop function keeps its own local copy: nothing takes the serial loop's copy's address, so the
+/// compiler keeps it in registers. (With one set of locals shared by both loops, the OpenMP region's
+/// capture let every force store alias them, and the serial loop got 15-20% slower.)
 template <class Law, KernelFlags kFlags>
-void computeForces(const typename Law::Params& params, const ForceContext& ctx) {
-  using detail::Vec3;
+struct PairKernel {
   using Normal = typename Law::NormalLaw;
-  constexpr bool kRotation = Law::kUsesRotation;
-  constexpr int kHistory = Law::kHistorySize;
-  static_assert(kHistory == 0 || kHistory == CundallStrack::kHistorySize, "one history layout so far");
+  static constexpr bool kRotation = Law::kUsesRotation;
+  static constexpr int kHistory = Law::kHistorySize;
 
-  const Index n = ctx.count;
-  const double* x = ctx.position;
-  const double* v = ctx.velocity;
-  const double* r = ctx.radius;
-  const double* invm = ctx.inverseMass;
-  double* f = ctx.force;
-  [[maybe_unused]] const double* vh = ctx.velocityHalf;
-  [[maybe_unused]] const double* w = ctx.angularVelocity;
-  [[maybe_unused]] const double* wh = ctx.angularVelocityHalf;
-  [[maybe_unused]] double* torque = ctx.torque;
-
-  // Body force and torque on particle i (gravity, viscous damping; else zero), summed in one order.
-  auto bodyForce = [&](Index i) {
-    Vec3 fb = Vec3::Zero();
-    if constexpr (kFlags.gravity || kFlags.viscous) {
-      const double m = 1.0 / invm[i];
-      for (int k = 0; k < 3; ++k) {
-        double fk = 0.0;
-        if constexpr (kFlags.gravity) fk += m * ctx.gravity[k];
-        if constexpr (kFlags.viscous) fk -= ctx.viscousRate * m * v[3 * i + k];
-        fb[k] = fk;
-      }
-    }
-    return fb;
-  };
-  [[maybe_unused]] auto bodyTorque = [&](Index i) {
-    Vec3 tb = Vec3::Zero();
-    if constexpr (kFlags.viscous) {
-      const double inertia = 1.0 / ctx.inverseInertia[i];
-      for (int k = 0; k < 3; ++k) tb[k] = -ctx.viscousRate * inertia * w[3 * i + k];
-    }
-    return tb;
-  };
-
-  const Index* offset = ctx.list->offset.data();
-  const Index* neighbour = ctx.list->neighbour.data();
-  const double L0 = ctx.length[0], L1 = ctx.length[1], L2 = ctx.length[2];
-  const double H0 = ctx.halfLength[0], H1 = ctx.halfLength[1], H2 = ctx.halfLength[2];
-  [[maybe_unused]] const double dt = ctx.dt;
-  [[maybe_unused]] double* history = nullptr;
-  if constexpr (kHistory > 0) history = ctx.pairHistory->values(0);
-
-  // What row i reads for every pair: loaded once per row.
+  /// What row i reads for every pair: loaded once per row.
   struct Row {
     double x0, x1, x2, r, invm;
     Vec3 v;
   };
-  auto loadRow = [&](Index i) { return Row{x[3 * i], x[3 * i + 1], x[3 * i + 2], r[i], invm[i], detail::load(v, i)}; };
 
-  // Candidate pair c = (i, j): false when the spheres do not touch (its history is cleared). Otherwise
-  // fc = force on i (= minus the force on j) and, with rotation, the torques on i and j as -tqi, -tqj.
-  auto pairForce = [&](Index i, const Row& a, Index c, Index j, Vec3& fc, [[maybe_unused]] Vec3& tqi,
-                       [[maybe_unused]] Vec3& tqj) {
+  PairKernel(const typename Law::Params& p, const ForceContext& ctx)
+      : params(p),
+        x(ctx.position),
+        v(ctx.velocity),
+        r(ctx.radius),
+        invm(ctx.inverseMass),
+        f(ctx.force),
+        vh(ctx.velocityHalf),
+        w(ctx.angularVelocity),
+        wh(ctx.angularVelocityHalf),
+        inverseInertia(ctx.inverseInertia),
+        torque(ctx.torque),
+        offset(ctx.list->offset.data()),
+        neighbour(ctx.list->neighbour.data()),
+        L0(ctx.length[0]), L1(ctx.length[1]), L2(ctx.length[2]),
+        H0(ctx.halfLength[0]), H1(ctx.halfLength[1]), H2(ctx.halfLength[2]),
+        g0(ctx.gravity[0]), g1(ctx.gravity[1]), g2(ctx.gravity[2]),
+        viscousRate(ctx.viscousRate),
+        dt(ctx.dt),
+        history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr) {}
+
+  /// Body force on particle i (gravity, viscous damping; else zero), summed in one fixed order.
+  Vec3 bodyForce(Index i) const {
+    Vec3 fb = Vec3::Zero();
+    if constexpr (kFlags.gravity || kFlags.viscous) {
+      const double m = 1.0 / invm[i];
+      const double g[3] = {g0, g1, g2};
+      for (int k = 0; k < 3; ++k) {
+        double fk = 0.0;
+        if constexpr (kFlags.gravity) fk += m * g[k];
+        if constexpr (kFlags.viscous) fk -= viscousRate * m * v[3 * i + k];
+        fb[k] = fk;
+      }
+    }
+    return fb;
+  }
+  Vec3 bodyTorque(Index i) const {
+    Vec3 tb = Vec3::Zero();
+    if constexpr (kFlags.viscous && kRotation) {
+      const double inertia = 1.0 / inverseInertia[i];
+      for (int k = 0; k < 3; ++k) tb[k] = -viscousRate * inertia * w[3 * i + k];
+    }
+    return tb;
+  }
+  Row loadRow(Index i) const { return Row{x[3 * i], x[3 * i + 1], x[3 * i + 2], r[i], invm[i], load(v, i)}; }
+
+  /// Candidate pair c = (i, j): false when the spheres do not touch (its history is cleared). Otherwise
+  /// fc = force on i (minus the force on j) and, with rotation, the torques on i and j as -tqi, -tqj.
+  bool pairForce(Index i, const Row& a, Index c, Index j, Vec3& fc, [[maybe_unused]] Vec3& tqi,
+                 [[maybe_unused]] Vec3& tqj) const {
     double d0 = a.x0 - x[3 * j], d1 = a.x1 - x[3 * j + 1], d2 = a.x2 - x[3 * j + 2];
     // Minimum image; halfLength is +inf on walled axes, so those never shift.
     if (d0 > H0) d0 -= L0; else if (d0 < -H0) d0 += L0;
@@ -143,164 +146,209 @@ void computeForces(const typename Law::Params& params, const ForceContext& ctx) 
     const double overlap = sumR - dist;
     const double meff = 1.0 / (a.invm + invm[j]);
     const double reff = a.r * rj / sumR;
-    const Vec3 vrel = a.v - detail::load(v, j);
+    const Vec3 vrel = a.v - load(v, j);
     const double rate = -vrel.dot(nrm);
     const NormalForce nf = Normal::force(params.normal, overlap, rate, meff, reff);
     fc = nf.force * nrm;
     if constexpr (kRotation) {
       const double ai = a.r - 0.5 * overlap, aj = rj - 0.5 * overlap;
-      const Vec3 wi = detail::load(w, i), wj = detail::load(w, j);
+      const Vec3 wi = load(w, i), wj = load(w, j);
       Vec3 vc = vrel - (ai * wi + aj * wj).cross(nrm);
       const Vec3 vt = vc - vc.dot(nrm) * nrm;
-      const Vec3 vrelHalf = detail::load(vh, i) - detail::load(vh, j);
-      Vec3 vch = vrelHalf - (ai * detail::load(wh, i) + aj * detail::load(wh, j)).cross(nrm);
+      const Vec3 vrelHalf = load(vh, i) - load(vh, j);
+      Vec3 vch = vrelHalf - (ai * load(wh, i) + aj * load(wh, j)).cross(nrm);
       const Vec3 vtHalf = vch - vch.dot(nrm) * nrm;
-      const Vec3 ft = detail::tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt,
-                                              history + kHistory * static_cast<std::size_t>(c));
+      const Vec3 ft = tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt,
+                                      history + kHistory * static_cast<std::size_t>(c));
       fc += ft;
       const Vec3 arm = nrm.cross(ft);  // torque_i = -a_i n x F_t, torque_j = -a_j n x F_t
       tqi = ai * arm;
       tqj = aj * arm;
     }
     return true;
-  };
+  }
 
-#if POLYDEM_WITH_OPENMP
-  if (ctx.threads > 1) {
-    // Owner computes (see force_loop.hpp): block t owns the forces of rows [blockStart[t], blockStart[t+1]).
-    const ContactList& list = *ctx.list;
-    POLYDEM_ASSERT(list.blockCount() > 0, "threaded force loop without ContactList::buildBlocks()");
-    const Index blocks = list.blockCount();
-    const Index* blockStart = list.blockStart.data();
-    const Index* crossStart = list.crossStart.data();
-    const Index* crossPair = list.crossPair.data();
-    const Index* crossRow = list.crossRow.data();
-    const Index* targetOffset = list.targetOffset.data();
-    const Index* byTarget = list.byTarget.data();
-    double* xf = ctx.crossScratch;  // force on i per cross pair
-    [[maybe_unused]] double* xt = ctx.crossScratch + 3 * list.crossCount();  // rotation: tqi per cross pair
-    std::uint8_t* touching = ctx.crossTouching;
-#pragma omp parallel num_threads(ctx.threads)
-    {
-      // Pass 1, per block of j: body forces, then the cross pairs into the block, ascending (i, j): the
-      // first terms of the serial sum of every F_j. Each cross pair is computed (and its history
-      // advanced) exactly once, here.
-#pragma omp for schedule(static, 1)
-      for (Index t = 0; t < blocks; ++t) {
-        for (Index j = blockStart[t]; j < blockStart[t + 1]; ++j) {
-          const Vec3 fb = bodyForce(j);
-          for (int k = 0; k < 3; ++k) f[3 * j + k] = fb[k];
-          if constexpr (kRotation) {
-            const Vec3 tb = bodyTorque(j);
-            for (int k = 0; k < 3; ++k) torque[3 * j + k] = tb[k];
-          }
-        }
-        for (Index m = targetOffset[t]; m < targetOffset[t + 1]; ++m) {
-          const Index q = byTarget[m];
-          const Index c = crossPair[q], i = crossRow[q], j = neighbour[c];
-          Vec3 fc, tqi, tqj;
-          touching[q] = pairForce(i, loadRow(i), c, j, fc, tqi, tqj);
-          if (!touching[q]) continue;
-          detail::subtract(f, j, fc);
-          for (int k = 0; k < 3; ++k) xf[3 * static_cast<std::size_t>(q) + k] = fc[k];
-          if constexpr (kRotation) {
-            detail::subtract(torque, j, tqj);
-            for (int k = 0; k < 3; ++k) xt[3 * static_cast<std::size_t>(q) + k] = tqi[k];
-          }
-        }
-      }
-      // (implicit barrier: every cross pair is done)
-      // Pass 2, per block of i: the serial loop over the block's rows; pairs whose j lies beyond the
-      // block are the cross pairs of pass 1, met here in the same (ascending c) order, read back.
-#pragma omp for schedule(static, 1)
-      for (Index s = 0; s < blocks; ++s) {
-        const Index blockEnd = blockStart[s + 1];
-        Index q = crossStart[s];
-        for (Index i = blockStart[s]; i < blockEnd; ++i) {
-          const Row a = loadRow(i);
-          double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
-          [[maybe_unused]] Vec3 ti = Vec3::Zero();
-          const Index end = offset[i + 1];
-          for (Index c = offset[i]; c < end; ++c) {
-            const Index j = neighbour[c];
-            if (j >= blockEnd) {
-              POLYDEM_ASSERT(crossPair[q] == c, "cross pairs out of step with the rows");
-              if (touching[q]) {
-                const double* fq = xf + 3 * static_cast<std::size_t>(q);
-                fi0 += fq[0];
-                fi1 += fq[1];
-                fi2 += fq[2];
-                if constexpr (kRotation) ti -= detail::load(xt, q);
-              }
-              ++q;
-              continue;
-            }
-            Vec3 fc, tqi, tqj;
-            if (!pairForce(i, a, c, j, fc, tqi, tqj)) continue;
-            if constexpr (kRotation) {
-              ti -= tqi;
-              detail::subtract(torque, j, tqj);
-            }
-            fi0 += fc[0];
-            fi1 += fc[1];
-            fi2 += fc[2];
-            detail::subtract(f, j, fc);
-          }
-          f[3 * i] += fi0;
-          f[3 * i + 1] += fi1;
-          f[3 * i + 2] += fi2;
-          if constexpr (kRotation) detail::add(torque, i, ti);
-        }
-      }
-    }
-  } else
-#endif
-  {
-    // Serial: body forces first, then each row adds its sum to i and scatters -F to every j > i.
-    if constexpr (kFlags.gravity || kFlags.viscous) {
-      for (Index i = 0; i < n; ++i) {
-        const Vec3 fb = bodyForce(i);
-        for (int k = 0; k < 3; ++k) f[3 * i + k] = fb[k];
-      }
-    } else {
-      std::memset(f, 0, sizeof(double) * 3 * static_cast<std::size_t>(n));
-    }
-    if constexpr (kRotation) {
-      if constexpr (kFlags.viscous) {
-        for (Index i = 0; i < n; ++i) {
-          const Vec3 tb = bodyTorque(i);
-          for (int k = 0; k < 3; ++k) torque[3 * i + k] = tb[k];
-        }
-      } else {
-        std::memset(torque, 0, sizeof(double) * 3 * static_cast<std::size_t>(n));
-      }
-    }
-    for (Index i = 0; i < n; ++i) {
+  /// The serial order for rows [begin, end): each row sums its pairs into F_i and scatters -F to j.
+  /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
+  /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
+  /// ownedEnd = n (no cross pairs).
+  template <class Cross>
+  void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    for (Index i = begin; i < end; ++i) {
       const Row a = loadRow(i);
       double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
       [[maybe_unused]] Vec3 ti = Vec3::Zero();
-      const Index end = offset[i + 1];
-      for (Index c = offset[i]; c < end; ++c) {
+      const Index rowEnd = offset[i + 1];
+      for (Index c = offset[i]; c < rowEnd; ++c) {
         const Index j = neighbour[c];
+        if (j >= ownedEnd) {
+          if (const double* stored = cross(c)) {
+            fi0 += stored[0];
+            fi1 += stored[1];
+            fi2 += stored[2];
+            if constexpr (kRotation) ti -= load(stored + 3, 0);
+          }
+          continue;
+        }
         Vec3 fc, tqi, tqj;
         if (!pairForce(i, a, c, j, fc, tqi, tqj)) continue;
         if constexpr (kRotation) {
           ti -= tqi;
-          detail::subtract(torque, j, tqj);
+          subtract(torque, j, tqj);
         }
         fi0 += fc[0];
         fi1 += fc[1];
         fi2 += fc[2];
-        detail::subtract(f, j, fc);
+        subtract(f, j, fc);
       }
       f[3 * i] += fi0;
       f[3 * i + 1] += fi1;
       f[3 * i + 2] += fi2;
-      if constexpr (kRotation) detail::add(torque, i, ti);
+      if constexpr (kRotation) add(torque, i, ti);
     }
   }
 
+  const typename Law::Params& params;
+  const double* const x;
+  const double* const v;
+  const double* const r;
+  const double* const invm;
+  double* const f;
+  const double* const vh;
+  const double* const w;
+  const double* const wh;
+  const double* const inverseInertia;
+  double* const torque;
+  const Index* const offset;
+  const Index* const neighbour;
+  const double L0, L1, L2, H0, H1, H2, g0, g1, g2, viscousRate, dt;
+  double* const history;
+};
+
+template <class Law, KernelFlags kFlags>
+void serialPairs(const typename Law::Params& params, const ForceContext& ctx) {
+  const PairKernel<Law, kFlags> k(params, ctx);
+  double* f = ctx.force;
+  const auto n3 = 3 * static_cast<std::size_t>(ctx.count);
+  // Body forces first, then each row adds its sum to i and scatters -F to every j > i.
+  if constexpr (kFlags.gravity || kFlags.viscous) {
+    for (Index i = 0; i < ctx.count; ++i) {
+      const Vec3 fb = k.bodyForce(i);
+      for (int q = 0; q < 3; ++q) f[3 * i + q] = fb[q];
+    }
+  } else {
+    std::memset(f, 0, sizeof(double) * n3);
+  }
+  if constexpr (Law::kUsesRotation) {
+    if constexpr (kFlags.viscous) {
+      for (Index i = 0; i < ctx.count; ++i) {
+        const Vec3 tb = k.bodyTorque(i);
+        for (int q = 0; q < 3; ++q) ctx.torque[3 * i + q] = tb[q];
+      }
+    } else {
+      std::memset(ctx.torque, 0, sizeof(double) * n3);
+    }
+  }
+  k.rows(0, ctx.count, ctx.count, [](Index) -> const double* { return nullptr; });
+}
+
+#if POLYDEM_WITH_OPENMP
+/// Owner computes (see force_loop.hpp): block t owns the forces of rows [blockStart[t], blockStart[t+1]).
+template <class Law, KernelFlags kFlags>
+void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) {
+  constexpr bool kRotation = Law::kUsesRotation;
+  constexpr std::size_t kStride = kRotation ? 6 : 3;  // stored per cross pair: F_i (and tq_i)
+  const PairKernel<Law, kFlags> k(params, ctx);
+  const ContactList& list = *ctx.list;
+  POLYDEM_ASSERT(list.blockCount() > 0, "threaded force loop without ContactList::buildBlocks()");
+  const Index blocks = list.blockCount();
+  const Index* blockStart = list.blockStart.data();
+  const Index* crossStart = list.crossStart.data();
+  const Index* crossPair = list.crossPair.data();
+  const Index* crossRow = list.crossRow.data();
+  const Index* targetOffset = list.targetOffset.data();
+  const Index* byTarget = list.byTarget.data();
+  double* stored = ctx.crossScratch;
+  std::uint8_t* touching = ctx.crossTouching;
+#pragma omp parallel num_threads(ctx.threads)
+  {
+    // Pass 1, per block of j: body forces, then the cross pairs into the block in ascending (i, j), the
+    // first terms of the serial sum of every F_j. Each cross pair is computed (and its spring advanced)
+    // exactly once, here.
+#pragma omp for schedule(static, 1)
+    for (Index t = 0; t < blocks; ++t) {
+      for (Index j = blockStart[t]; j < blockStart[t + 1]; ++j) {
+        const Vec3 fb = k.bodyForce(j);
+        for (int q = 0; q < 3; ++q) k.f[3 * j + q] = fb[q];
+        if constexpr (kRotation) {
+          const Vec3 tb = k.bodyTorque(j);
+          for (int q = 0; q < 3; ++q) k.torque[3 * j + q] = tb[q];
+        }
+      }
+      for (Index m = targetOffset[t]; m < targetOffset[t + 1]; ++m) {
+        const Index e = byTarget[m];
+        const Index c = crossPair[e], i = crossRow[e], j = k.neighbour[c];
+        Vec3 fc, tqi, tqj;
+        const bool touch = k.pairForce(i, k.loadRow(i), c, j, fc, tqi, tqj);
+        touching[e] = touch;
+        if (!touch) continue;
+        subtract(k.f, j, fc);
+        double* out = stored + kStride * static_cast<std::size_t>(e);
+        for (int q = 0; q < 3; ++q) out[q] = fc[q];
+        if constexpr (kRotation) {
+          subtract(k.torque, j, tqj);
+          for (int q = 0; q < 3; ++q) out[3 + q] = tqi[q];
+        }
+      }
+    }
+    // (implicit barrier: every cross pair is done)
+    // Pass 2, per block of i: the serial loop over the block's rows, which meets the block's cross pairs
+    // in the order pass 1 listed them (ascending c) and reads them back.
+#pragma omp for schedule(static, 1)
+    for (Index s = 0; s < blocks; ++s) {
+      Index e = crossStart[s];
+      k.rows(blockStart[s], blockStart[s + 1], blockStart[s + 1], [&](Index c) -> const double* {
+        POLYDEM_ASSERT(crossPair[e] == c, "cross pairs out of step with the rows");
+        (void)c;
+        const Index here = e++;
+        return touching[here] ? stored + kStride * static_cast<std::size_t>(here) : nullptr;
+      });
+    }
+  }
+}
+#endif
+
+}  // namespace detail
+
+template <class Law, KernelFlags kFlags>
+void computeForces(const typename Law::Params& params, const ForceContext& ctx) {
+  using detail::Vec3;
+  using Normal = typename Law::NormalLaw;
+  constexpr bool kRotation = Law::kUsesRotation;
+  constexpr int kHistory = Law::kHistorySize;
+  static_assert(kHistory == 0 || kHistory == CundallStrack::kHistorySize, "one history layout so far");
+
+#if POLYDEM_WITH_OPENMP
+  if (ctx.threads > 1) {
+    detail::threadedPairs<Law, kFlags>(params, ctx);
+  } else
+#endif
+  {
+    detail::serialPairs<Law, kFlags>(params, ctx);
+  }
+
+  // Walls: serial (a surface's worth of candidates), after every pair force, whatever the thread count.
   if constexpr (kFlags.walls) {
+    const double* x = ctx.position;
+    const double* v = ctx.velocity;
+    const double* r = ctx.radius;
+    const double* invm = ctx.inverseMass;
+    double* f = ctx.force;
+    [[maybe_unused]] const double* vh = ctx.velocityHalf;
+    [[maybe_unused]] const double* w = ctx.angularVelocity;
+    [[maybe_unused]] const double* wh = ctx.angularVelocityHalf;
+    [[maybe_unused]] double* torque = ctx.torque;
+    [[maybe_unused]] const double dt = ctx.dt;
     const Index* wallParticle = ctx.list->wallParticle.data();
     const std::int8_t* wallFace = ctx.list->wallFace.data();
     const std::size_t count = ctx.list->wallParticle.size();

@@ -12,11 +12,15 @@
 namespace polydem::edmd {
 
 double ContactNetwork::meanCoordination() const {
-  return particles ? 2.0 * static_cast<double>(contacts.size()) / particles : 0.0;
+  return particles ? (2.0 * static_cast<double>(contacts.size()) + static_cast<double>(wallContacts.size())) / particles
+                   : 0.0;
 }
 
 double ContactNetwork::backboneCoordination() const {
-  return backbone ? 2.0 * static_cast<double>(backboneContacts) / backbone : std::numeric_limits<double>::quiet_NaN();
+  if (!backbone) return std::numeric_limits<double>::quiet_NaN();
+  std::int64_t walls = 0;
+  for (const WallContact& w : wallContacts) walls += rattler[static_cast<std::size_t>(w.i)] ? 0 : 1;
+  return (2.0 * static_cast<double>(backboneContacts - walls) + static_cast<double>(walls)) / backbone;
 }
 
 double ContactNetwork::rattlerFraction() const {
@@ -58,6 +62,23 @@ ContactNetwork analyseContacts(const SphereView& spheres, const Box& box, const 
     ++net.coordination[static_cast<std::size_t>(p.i)];
     ++net.coordination[static_cast<std::size_t>(p.j)];
   }
+  net.periodicAxes = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (box.periodic(k)) {
+      ++net.periodicAxes;
+      continue;
+    }
+    for (Index i = 0; i < n; ++i) {
+      const double r = spheres.radius[i], x = spheres.centre(k, i);
+      for (int upper = 0; upper < 2; ++upper) {
+        const double gap = upper ? box.length(k) - x - r : x - r;
+        if (gap <= options.relativeGap * 2.0 * r) {
+          net.wallContacts.push_back({i, 2 * k + upper});
+          ++net.coordination[static_cast<std::size_t>(i)];
+        }
+      }
+    }
+  }
   // Iterative rattler removal with a work list.
   std::vector<std::vector<Index>> adjacency(static_cast<std::size_t>(n));
   for (const auto& p : net.contacts) {
@@ -87,6 +108,7 @@ ContactNetwork analyseContacts(const SphereView& spheres, const Box& box, const 
   for (const auto& p : net.contacts) {
     if (!net.rattler[static_cast<std::size_t>(p.i)] && !net.rattler[static_cast<std::size_t>(p.j)]) ++net.backboneContacts;
   }
+  for (const WallContact& w : net.wallContacts) net.backboneContacts += net.rattler[static_cast<std::size_t>(w.i)] ? 0 : 1;
   if (!std::isfinite(net.minGap)) net.minGap = 0.0;
   return net;
 }

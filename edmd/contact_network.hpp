@@ -23,23 +23,34 @@ struct ContactOptions {
   std::string broadPhase = "hgrid-td";
 };
 
+/// A sphere touching a hard wall: wall = 2 axis + (upper ? 1 : 0).
+struct WallContact {
+  Index i;
+  int wall;
+};
+
 struct ContactNetwork {
   std::vector<broadphase::Pair> contacts;   ///< sorted, i < j
-  std::vector<int> coordination;            ///< contacts per particle (all contacts)
+  std::vector<WallContact> wallContacts;    ///< gap to a hard wall <= tau 2 r_i (walled axes only)
+  std::vector<int> coordination;            ///< contacts per particle (pairs and walls)
   std::vector<char> rattler;                ///< 1 = rattler
   Index particles = 0;
   Index backbone = 0;                       ///< non-rattlers N'
-  std::int64_t backboneContacts = 0;        ///< contacts between non-rattlers M'
+  std::int64_t backboneContacts = 0;        ///< contacts between non-rattlers, and with walls, M'
+  int periodicAxes = 3;
   double maxOverlap = 0.0;                  ///< largest relative overlap (s - |r|) / s found
   double minGap = 0.0;                      ///< smallest relative gap (negative = overlap)
 
-  /// 2 M / N over all particles.
+  /// 2 M / N over all particles (a wall contact counts once, for its sphere).
   double meanCoordination() const;
   /// 2 M' / N' over the backbone (NaN if empty).
   double backboneCoordination() const;
   double rattlerFraction() const;
-  /// M' - (3 N' - 2): 0 for an isostatic, collectively jammed periodic backbone.
-  std::int64_t isostaticExcess() const { return backboneContacts - (3 * static_cast<std::int64_t>(backbone) - 2); }
+  /// M' - (N_f + 1), N_f = 3 N' - (periodic axes): 0 for an isostatic, collectively jammed backbone
+  /// (3N' - 2 in a periodic box, 3N' + 1 between walls; eq. 4.8, :4476-4502).
+  std::int64_t isostaticExcess() const {
+    return backboneContacts - (3 * static_cast<std::int64_t>(backbone) - periodicAxes + 1);
+  }
 };
 
 /// Contacts and rattlers of the spheres (centres inside the box). O(N) with a grid broad phase.

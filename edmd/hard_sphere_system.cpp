@@ -168,16 +168,16 @@ void HardSphereSystem::checkInput(const Eigen::Matrix3Xd& position, const Eigen:
         rmax, minLength));
   }
   // Overlaps, through a broad phase on the spheres themselves.
-  Eigen::Matrix3Xd wrapped(3, n);
-  for (Index i = 0; i < n; ++i) wrapped.col(i) = box_.wrap(position.col(i));
+  Eigen::Matrix3Xd centres(3, n);
+  for (Index i = 0; i < n; ++i) centres.col(i) = box_.wrap(position.col(i));
   auto finder = broadphase::makeBroadPhase(options_.broadPhase);
-  const SphereView view{wrapped, radius};
+  const SphereView view{centres, radius};
   finder->build(view, box_, 0.0);
   std::vector<broadphase::Pair> pairs;
   finder->findPairs(view, pairs);
   for (const broadphase::Pair& p : pairs) {
     const double s = radius[p.i] + radius[p.j];
-    const double dist = box_.minimumImage(wrapped.col(p.i) - wrapped.col(p.j)).norm();
+    const double dist = box_.minimumImage(centres.col(p.i) - centres.col(p.j)).norm();
     if (s - dist > 1e-12 * s) {
       throw ConfigError(fmt::format("particles {} and {} overlap: centre distance {} < sum of radii {} (relative {:.3g})",
                                     p.i, p.j, dist, s, (s - dist) / s));
@@ -498,24 +498,6 @@ inline bool HardSphereSystem::keepEarlier(double tau, double tc, double horizon,
   return keepEarlierImpl(tau, tc, horizon, best);
 }
 
-double HardSphereSystem::pairDelay(const State& si, Index j) const {
-  const State& sj = state_[static_cast<std::size_t>(j)];
-  const double dt = clock_ - sj.t;
-  double r[3], u[3];
-  for (int k = 0; k < 3; ++k) {
-    r[k] = si.x[k] - (sj.x[k] + sj.v[k] * dt);
-    u[k] = si.v[k] - sj.v[k];
-  }
-  minimumImage(r);
-  const double s0 = si.r0 + sj.r0;
-  const double sd = growth_ * s0;
-  const double s = s0 + sd * clock_;
-  const ContactQuadratic q = contactQuadratic(r, u, s, sd);
-  if (q.c > 0.0 && q.b >= 0.0 && q.a >= 0.0) return kNever;  // gap open and opening: the common case
-  const bool approaching = q.c <= 0.0 && approachRate(r, u, sd) < 0.0;
-  return pairCollisionDelay(q, approaching);
-}
-
 void HardSphereSystem::predict(Index i) {
   // Algorithm 5 (seed :3141-3190), NNL mode.
   const std::size_t ui = static_cast<std::size_t>(i);
@@ -543,8 +525,8 @@ void HardSphereSystem::predict(Index i) {
       }
     }
   }
-  // The hot loop: pairDelay() written out with i's state in registers, and the state of the neighbour
-  // after next prefetched (the loop is bound by those loads, not by arithmetic).
+  // The hot loop: the pair collision time of kinematics.hpp with i's state in registers and the states
+  // of later neighbours prefetched (the loop is bound by those loads more than by arithmetic).
   {
     const State* states = state_.data();
     const double xi[3] = {si.x[0], si.x[1], si.x[2]};

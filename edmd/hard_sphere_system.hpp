@@ -215,7 +215,6 @@ class HardSphereSystem {
   void rebuildNeighbourhoods();
   void refreshNeighbourhood(Index i);
   void predict(Index i);
-  double pairDelay(const State& si, Index j) const;
   void collide(Index i, Index j);
   void collideWithWall(Index i, int wall);
   void process(Index i);

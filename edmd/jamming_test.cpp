@@ -1,5 +1,6 @@
 #include "edmd/jamming_test.hpp"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <random>
@@ -88,6 +89,14 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     }
     a.pairs.push_back({bi, bj});
   }
+  for (const WallContact& w : network.wallContacts) {
+    const int bi = slot[static_cast<std::size_t>(w.i)];
+    if (bi < 0) continue;
+    ++a.rows;  // opening rate of a wall contact: +dR_k at the lower wall, -dR_k at the upper one
+    a.ia.push_back(a.rows);
+    a.ja.push_back(3 * bi + w.wall / 2 + 1);
+    a.ar.push_back(w.wall % 2 ? -1.0 : 1.0);
+  }
   if (a.rows == 0) {
     result.verdict = "unjammed: no contacts";
     return result;
@@ -108,7 +117,7 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     std::vector<double> objective(static_cast<std::size_t>(a.cols) + 1, 0.0);
     for (int e = 1; e <= ne; ++e) objective[static_cast<std::size_t>(a.ja[static_cast<std::size_t>(e)])] += a.ar[static_cast<std::size_t>(e)];
     for (int c = 1; c <= a.cols; ++c) {
-      glp_set_col_bnds(lp.p, c, c <= 3 ? GLP_FX : GLP_FR, 0.0, 0.0);  // pin the first backbone sphere
+      glp_set_col_bnds(lp.p, c, c <= 3 && box.periodic(c - 1) ? GLP_FX : GLP_FR, 0.0, 0.0);  // pin sphere 1
       glp_set_obj_coef(lp.p, c, objective[static_cast<std::size_t>(c)]);
     }
     glp_load_matrix(lp.p, ne, a.ia.data(), a.ja.data(), a.ar.data());
@@ -132,7 +141,7 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<double> uniform(-1.0, 1.0);
     for (int c = 1; c <= a.cols; ++c) {
-      if (c <= 3) {
+      if (c <= 3 && box.periodic(c - 1)) {
         glp_set_col_bnds(lp.p, c, GLP_FX, 0.0, 0.0);
       } else {
         glp_set_col_bnds(lp.p, c, GLP_DB, -1.0, 1.0);
@@ -167,20 +176,32 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   }
   LoadTestResult result;
   result.motion = Eigen::Matrix3Xd::Zero(3, n);
-  std::vector<int> slot(static_cast<std::size_t>(n), -1);
-  std::vector<Index> backbone;
-  for (Index i = 0; i < n; ++i) {
-    if (!network.rattler[static_cast<std::size_t>(i)]) {
-      slot[static_cast<std::size_t>(i)] = static_cast<int>(backbone.size());
-      backbone.push_back(i);
-    }
+  // Every sphere but the removed ones is a variable; rattlers carry no load but keep their constraints
+  // (seed :5713-5725), so the backbone cannot move through them.
+  std::vector<char> removed(static_cast<std::size_t>(n), 0);
+  for (Index i : options.removed) {
+    if (i < 0 || i >= n) throw ConfigError(fmt::format("jamming test: removed sphere {} out of range", i));
+    removed[static_cast<std::size_t>(i)] = 1;
   }
-  if (backbone.size() < 2) {
+  std::vector<int> slot(static_cast<std::size_t>(n), -1);
+  std::vector<Index> movable;
+  std::vector<char> loaded;
+  int firstLoaded = -1;
+  for (Index i = 0; i < n; ++i) {
+    if (removed[static_cast<std::size_t>(i)]) continue;
+    slot[static_cast<std::size_t>(i)] = static_cast<int>(movable.size());
+    const bool backbone = !network.rattler[static_cast<std::size_t>(i)];
+    if (backbone && firstLoaded < 0) firstLoaded = static_cast<int>(movable.size());
+    movable.push_back(i);
+    loaded.push_back(backbone ? 1 : 0);
+  }
+  const std::int64_t backboneCount = std::count(loaded.begin(), loaded.end(), 1);
+  if (backboneCount < 2) {
     result.verdict = "unjammed: no backbone";
     return result;
   }
   const double diameter = 2.0 * spheres.radius.mean();
-  // Constraints: every backbone pair within the gap tolerance.
+  // Constraints: every pair of remaining spheres within the gap tolerance, and the walls.
   ContactOptions near;
   near.relativeGap = options.gapTolerance;
   const ContactNetwork wide = analyseContacts(spheres, box, near);
@@ -204,20 +225,34 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     }
     gap.push_back(std::max(0.0, dist - (spheres.radius[c.i] + spheres.radius[c.j])) / diameter);
   }
+  for (const WallContact& w : wide.wallContacts) {
+    const int bi = slot[static_cast<std::size_t>(w.i)];
+    if (bi < 0) continue;
+    const int k = w.wall / 2;
+    const double x = spheres.centre(k, w.i), r = spheres.radius[w.i];
+    ++rows;
+    ia.push_back(rows);
+    ja.push_back(3 * bi + k + 1);
+    ar.push_back(w.wall % 2 ? -1.0 : 1.0);
+    gap.push_back(std::max(0.0, w.wall % 2 ? box.length(k) - x - r : x - r) / diameter);
+  }
   result.constraints = rows;
-  const int cols = 3 * static_cast<int>(backbone.size());
+  const int cols = 3 * static_cast<int>(movable.size());
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal;
   double worst = -1.0;
   for (int load = 0; load < options.loads; ++load) {
-    std::vector<double> b(static_cast<std::size_t>(cols));
+    std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (int c = 0; c < cols; ++c) {
+      if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
       b[static_cast<std::size_t>(c)] = normal(rng);
       mean[c % 3] += b[static_cast<std::size_t>(c)];
     }
-    mean /= static_cast<double>(backbone.size());
-    for (int c = 0; c < cols; ++c) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
+    mean /= static_cast<double>(backboneCount);
+    for (int c = 0; c < cols; ++c) {
+      if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
+    }
     for (double sign : {1.0, -1.0}) {
       Lp lp;
       glp_set_obj_dir(lp.p, GLP_MAX);
@@ -225,8 +260,9 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       glp_add_cols(lp.p, cols);
       for (int r = 1; r <= rows; ++r) glp_set_row_bnds(lp.p, r, GLP_LO, -gap[static_cast<std::size_t>(r - 1)], 0.0);
       for (int c = 1; c <= cols; ++c) {
-        // The first backbone sphere is pinned against the trivial translations.
-        if (c <= 3) {
+        // One backbone sphere is pinned against the trivial translations (periodic axes only).
+        const bool pinned = (c - 1) / 3 == firstLoaded && box.periodic((c - 1) % 3);
+        if (pinned) {
           glp_set_col_bnds(lp.p, c, GLP_FX, 0.0, 0.0);
         } else {
           glp_set_col_bnds(lp.p, c, GLP_DB, -options.maxDisplacement, options.maxDisplacement);
@@ -239,12 +275,13 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       double largest = 0.0;
       Index displaced = 0;
       Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
-      for (std::size_t bb = 0; bb < backbone.size(); ++bb) {
+      for (std::size_t m = 0; m < movable.size(); ++m) {
         Eigen::Vector3d dr;
-        for (int k = 0; k < 3; ++k) dr[k] = glp_get_col_prim(lp.p, static_cast<int>(3 * bb) + k + 1);
+        for (int k = 0; k < 3; ++k) dr[k] = glp_get_col_prim(lp.p, static_cast<int>(3 * m) + k + 1);
+        motion.col(movable[m]) = dr * diameter;
+        if (!loaded[m]) continue;  // rattlers may wander in their cages
         largest = std::max(largest, dr.norm());
         displaced += dr.norm() > options.displacementLimit ? 1 : 0;
-        motion.col(backbone[bb]) = dr * diameter;
       }
       if (largest > worst) {
         worst = largest;
@@ -258,7 +295,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   result.verdict = result.jammed
                        ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
                                      options.displacementLimit, 2 * options.loads)
-                       : fmt::format("unjammed: a load moves {} spheres by more than {:.1e} D (up to {:.3g} D)",
+                       : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
                                      result.displaced, options.displacementLimit, worst);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

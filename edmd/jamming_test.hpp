@@ -35,9 +35,10 @@ struct JammingTestResult {
 };
 
 /// The randomised load test of seed 001 (eq. 4.10, :4522-4569; Algorithm 13 without its rattler LP):
-/// every backbone pair with gap h <= gapTolerance (r_i + r_j) is a linearised constraint
+/// every pair with gap h <= gapTolerance (r_i + r_j) is a linearised constraint
 /// u_ij . (dR_i - dR_j) >= -h_ij (feasible for the true constraints too, :4319-4388); a random load B with
-/// zero net force is applied, max B . dR over |dR_k| <= maxDisplacement, then -B. The packing is jammed if
+/// zero net force is applied to the backbone (rattlers are unloaded but keep their constraints, :5713-5725),
+/// max B . dR over |dR_k| <= maxDisplacement, then -B. The packing is jammed if
 /// no sphere moves by more than `displacementLimit` under `loads` loads and their opposites. Lengths in
 /// units of the mean diameter.
 struct LoadTestOptions {
@@ -46,6 +47,7 @@ struct LoadTestOptions {
   double maxDisplacement = 10.0;
   int loads = 2;
   std::uint64_t seed = 1;
+  std::vector<Index> removed;  ///< spheres taken out of the packing for the test (no variables, no constraints)
 };
 struct LoadTestResult {
   bool jammed = false;

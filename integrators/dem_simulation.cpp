@@ -42,18 +42,32 @@ std::string faceName(int face) { return fmt::format("{}{}", (face & 1) ? "+" : "
 /// (exact, so independent of the split). Dynamic chunks of kChunk particles although the work per particle
 /// is uniform: on a shared machine a thread that loses its core mid-loop then holds up the barrier for
 /// one chunk, not for half the particles (static split: 2 threads ran 3x slower than 1 next to a compile).
+/// The threaded loops are separate, not inlined functions: the OpenMP region takes the address of its
+/// copy of `body`, which would otherwise make the serial loop reload the captured values after each store.
 constexpr Index kChunk = 2048;
+
+#if POLYDEM_WITH_OPENMP
+template <class Body>
+[[gnu::noinline]] double maxOverThreaded(Index n, int threads, Body body) {
+  double m = 0.0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, kChunk) reduction(max : m)
+  for (Index i = 0; i < n; ++i) m = std::max(m, body(i));
+  return m;
+}
+
+template <class Body>
+[[gnu::noinline]] void forEachThreaded(Index n, int threads, Body body) {
+#pragma omp parallel for num_threads(threads) schedule(dynamic, kChunk)
+  for (Index i = 0; i < n; ++i) body(i);
+}
+#endif
 
 template <class Body>
 double maxOver(Index n, [[maybe_unused]] int threads, Body body) {
-  double m = 0.0;
 #if POLYDEM_WITH_OPENMP
-  if (threads > 1) {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, kChunk) reduction(max : m)
-    for (Index i = 0; i < n; ++i) m = std::max(m, body(i));
-    return m;
-  }
+  if (threads > 1) return maxOverThreaded(n, threads, body);
 #endif
+  double m = 0.0;
   for (Index i = 0; i < n; ++i) m = std::max(m, body(i));
   return m;
 }
@@ -62,8 +76,7 @@ template <class Body>
 void forEach(Index n, [[maybe_unused]] int threads, Body body) {
 #if POLYDEM_WITH_OPENMP
   if (threads > 1) {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, kChunk)
-    for (Index i = 0; i < n; ++i) body(i);
+    forEachThreaded(n, threads, body);
     return;
   }
 #endif

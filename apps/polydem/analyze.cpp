@@ -103,9 +103,9 @@ Runner addAnalyze(CLI::App& app) {
                100.0 * net.rattlerFraction());
     fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}\n", net.backbone, net.backboneContacts,
                net.backboneCoordination());
-    if (data.box.fullyPeriodic()) {
+    {
       const std::int64_t excess = net.isostaticExcess();
-      fmt::print("isostaticity            contacts - (3N' - 2) = {} ({})\n", excess,
+      fmt::print("isostaticity            contacts - (3N' {:+d}) = {} ({})\n", 1 - net.periodicAxes, excess,
                  excess == 0 ? "isostatic" : excess < 0 ? "hypostatic: not collectively jammed" : "hyperstatic");
     }
     std::map<int, Index> histogram;
@@ -151,6 +151,7 @@ Runner addAnalyze(CLI::App& app) {
       edmd::LoadTestOptions loadOptions;
       loadOptions.gapTolerance = opt->loadGap;
       loadOptions.displacementLimit = opt->displacementLimit;
+      if (opt->removeSphere >= 0) loadOptions.removed.push_back(opt->removeSphere);
       const edmd::LoadTestResult jam = edmd::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
       fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {:.2f} s)\n", jam.verdict,
                  jam.constraints, loadOptions.gapTolerance, jam.seconds);

@@ -216,8 +216,8 @@ Runner addJam(CLI::App& app) {
                net.meanCoordination());
     fmt::print("rattlers (< {} contacts)  {} ({:.2f}%)\n", contactOptions.minContacts, n - net.backbone,
                100.0 * net.rattlerFraction());
-    fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N'-2) = {}\n", net.backbone,
-               net.backboneContacts, net.backboneCoordination(), net.isostaticExcess());
+    fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N' {:+d}) = {}\n", net.backbone,
+               net.backboneContacts, net.backboneCoordination(), 1 - net.periodicAxes, net.isostaticExcess());
     fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
                system.maxOverlapSeen());
 
