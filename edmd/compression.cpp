@@ -1,11 +1,11 @@
 #include "edmd/compression.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -56,8 +56,8 @@ std::vector<Stage> parseSchedule(const std::string& text) {
   if (stages.empty()) throw ConfigError(fmt::format("schedule '{}' has no stages (expected e.g. 1e-3:1e4,1e-4)", text));
   for (std::size_t k = 0; k < stages.size(); ++k) {
     if (!(stages[k].rate > 0.0) || !std::isfinite(stages[k].rate)) {
-      throw ConfigError(fmt::format("schedule '{}': stage {} rate must be positive and finite, got {}", text, k + 1,
-                                    stages[k].rate));
+      throw ConfigError(
+          fmt::format("schedule '{}': stage {} rate must be positive and finite, got {}", text, k + 1, stages[k].rate));
     }
     if (k > 0 && !(stages[k].untilPressure > stages[k - 1].untilPressure)) {
       throw ConfigError(fmt::format("schedule '{}': the pressures ending the stages must increase", text));
@@ -90,9 +90,10 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
   const double phi0 = system.packingFraction();
   const bool toDensity = options.targetPackingFraction > 0.0;
   if (toDensity && !(options.targetPackingFraction > phi0 && options.targetPackingFraction < 1.0)) {
-    throw ConfigError(fmt::format("target packing fraction must lie in ({}, 1) (the current one and space filling), "
-                                  "got {}",
-                                  phi0, options.targetPackingFraction));
+    throw ConfigError(
+        fmt::format("target packing fraction must lie in ({}, 1) (the current one and space filling), "
+                    "got {}",
+                    phi0, options.targetPackingFraction));
   }
   if (!(options.thermalSpeed > 0.0)) {
     throw ConfigError(fmt::format("thermal speed must be > 0, got {}", options.thermalSpeed));
@@ -113,9 +114,8 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
     const double g = rate * options.thermalSpeed / system.largestRadius();
     system.setGrowthRate(g);
     system.resetPressureWindow();
-    const double perParticle = options.blockCollisionsPerParticle > 0.0
-                                   ? options.blockCollisionsPerParticle
-                                   : std::clamp(0.01 / rate, 10.0, 1000.0);
+    const double perParticle = options.blockCollisionsPerParticle > 0.0 ? options.blockCollisionsPerParticle
+                                                                        : std::clamp(0.01 / rate, 10.0, 1000.0);
     double duration = HardSphereSystem::kInfinity;
     if (toDensity) {
       duration = (std::cbrt(options.targetPackingFraction / system.packingFraction()) - 1.0) / g;

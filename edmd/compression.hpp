@@ -50,9 +50,9 @@ struct CompressionOptions {
 /// State after one block.
 struct Progress {
   double packingFraction = 0.0;
-  double pressure = 0.0;          ///< reduced pressure of the block
-  double jammingEstimate = 0.0;   ///< phi / (1 - 3/p) (NaN while p <= 3)
-  double rate = 0.0;              ///< Gamma of the block
+  double pressure = 0.0;         ///< reduced pressure of the block
+  double jammingEstimate = 0.0;  ///< phi / (1 - 3/p) (NaN while p <= 3)
+  double rate = 0.0;             ///< Gamma of the block
   int stage = 0;
   double collisionsPerParticle = 0.0;  ///< cumulative
   double eventsPerSecond = 0.0;        ///< of the block
@@ -60,9 +60,9 @@ struct Progress {
   double wallSeconds = 0.0;            ///< since the start of compress()
   double time = 0.0;                   ///< simulated time
   std::int64_t blocks = 0;
-  double meanNeighbours = 0.0;         ///< neighbour-list length at the end of the block
-  double exitsPerCollision = 0.0;      ///< of the block
-  std::int64_t rebuilds = 0;           ///< global neighbourhood rebuilds in the block
+  double meanNeighbours = 0.0;     ///< neighbour-list length at the end of the block
+  double exitsPerCollision = 0.0;  ///< of the block
+  std::int64_t rebuilds = 0;       ///< global neighbourhood rebuilds in the block
 };
 
 struct CompressionResult {

@@ -1,10 +1,10 @@
 #include "edmd/contact_network.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
@@ -106,9 +106,11 @@ ContactNetwork analyseContacts(const SphereView& spheres, const Box& box, const 
   for (Index i = 0; i < n; ++i) net.backbone += net.rattler[static_cast<std::size_t>(i)] ? 0 : 1;
   net.backboneContacts = 0;
   for (const auto& p : net.contacts) {
-    if (!net.rattler[static_cast<std::size_t>(p.i)] && !net.rattler[static_cast<std::size_t>(p.j)]) ++net.backboneContacts;
+    if (!net.rattler[static_cast<std::size_t>(p.i)] && !net.rattler[static_cast<std::size_t>(p.j)])
+      ++net.backboneContacts;
   }
-  for (const WallContact& w : net.wallContacts) net.backboneContacts += net.rattler[static_cast<std::size_t>(w.i)] ? 0 : 1;
+  for (const WallContact& w : net.wallContacts)
+    net.backboneContacts += net.rattler[static_cast<std::size_t>(w.i)] ? 0 : 1;
   if (!std::isfinite(net.minGap)) net.minGap = 0.0;
   return net;
 }

@@ -18,8 +18,8 @@
 namespace polydem::edmd {
 
 struct ContactOptions {
-  double relativeGap = 1e-8;    ///< tau: contact when gap <= tau (r_i + r_j)
-  int minContacts = 4;          ///< rattler: fewer contacts than this among non-rattlers (d + 1)
+  double relativeGap = 1e-8;  ///< tau: contact when gap <= tau (r_i + r_j)
+  int minContacts = 4;        ///< rattler: fewer contacts than this among non-rattlers (d + 1)
   std::string broadPhase = "hgrid-td";
 };
 
@@ -30,16 +30,16 @@ struct WallContact {
 };
 
 struct ContactNetwork {
-  std::vector<broadphase::Pair> contacts;   ///< sorted, i < j
-  std::vector<WallContact> wallContacts;    ///< gap to a hard wall <= tau 2 r_i (walled axes only)
-  std::vector<int> coordination;            ///< contacts per particle (pairs and walls)
-  std::vector<char> rattler;                ///< 1 = rattler
+  std::vector<broadphase::Pair> contacts;  ///< sorted, i < j
+  std::vector<WallContact> wallContacts;   ///< gap to a hard wall <= tau 2 r_i (walled axes only)
+  std::vector<int> coordination;           ///< contacts per particle (pairs and walls)
+  std::vector<char> rattler;               ///< 1 = rattler
   Index particles = 0;
-  Index backbone = 0;                       ///< non-rattlers N'
-  std::int64_t backboneContacts = 0;        ///< contacts between non-rattlers, and with walls, M'
+  Index backbone = 0;                 ///< non-rattlers N'
+  std::int64_t backboneContacts = 0;  ///< contacts between non-rattlers, and with walls, M'
   int periodicAxes = 3;
-  double maxOverlap = 0.0;                  ///< largest relative overlap (s - |r|) / s found
-  double minGap = 0.0;                      ///< smallest relative gap (negative = overlap)
+  double maxOverlap = 0.0;  ///< largest relative overlap (s - |r|) / s found
+  double minGap = 0.0;      ///< smallest relative gap (negative = overlap)
 
   /// 2 M / N over all particles (a wall contact counts once, for its sphere).
   double meanCoordination() const;

@@ -136,8 +136,8 @@ void HardSphereSystem::checkInput(const Eigen::Matrix3Xd& position, const Eigen:
                                   const Eigen::Matrix3Xd& velocity) const {
   const Index n = static_cast<Index>(radius.size());
   if (position.cols() != n || velocity.cols() != n) {
-    throw ConfigError(fmt::format("hard-sphere system: {} radii but {} positions and {} velocities", n,
-                                  position.cols(), velocity.cols()));
+    throw ConfigError(fmt::format("hard-sphere system: {} radii but {} positions and {} velocities", n, position.cols(),
+                                  velocity.cols()));
   }
   double rmax = 0.0;
   for (Index i = 0; i < n; ++i) {
@@ -162,10 +162,10 @@ void HardSphereSystem::checkInput(const Eigen::Matrix3Xd& position, const Eigen:
   // the skins shrink to fit if needed, the spheres themselves must leave room for some skin.
   const double minLength = periodicLength();
   if (std::isfinite(minLength) && !(rmax < 0.25 * minLength * (1.0 - 1e-6))) {
-    throw ConfigError(fmt::format(
-        "the largest sphere (radius {}) does not fit 4 times into the shortest periodic box edge {}: every "
-        "periodic image must be unambiguous; use more particles (or a narrower size distribution)",
-        rmax, minLength));
+    throw ConfigError(
+        fmt::format("the largest sphere (radius {}) does not fit 4 times into the shortest periodic box edge {}: every "
+                    "periodic image must be unambiguous; use more particles (or a narrower size distribution)",
+                    rmax, minLength));
   }
   // Overlaps, through a broad phase on the spheres themselves.
   Eigen::Matrix3Xd centres(3, n);
@@ -179,8 +179,9 @@ void HardSphereSystem::checkInput(const Eigen::Matrix3Xd& position, const Eigen:
     const double s = radius[p.i] + radius[p.j];
     const double dist = box_.minimumImage(centres.col(p.i) - centres.col(p.j)).norm();
     if (s - dist > 1e-12 * s) {
-      throw ConfigError(fmt::format("particles {} and {} overlap: centre distance {} < sum of radii {} (relative {:.3g})",
-                                    p.i, p.j, dist, s, (s - dist) / s));
+      throw ConfigError(
+          fmt::format("particles {} and {} overlap: centre distance {} < sum of radii {} (relative {:.3g})", p.i, p.j,
+                      dist, s, (s - dist) / s));
     }
   }
 }
@@ -490,9 +491,7 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
 // ---------------------------------------------------------------------------------------------------
 // Prediction
 
-inline double HardSphereSystem::wrapped(double d, int axis) const {
-  return wrapOnce(d, half_[axis], wrap_[axis]);
-}
+inline double HardSphereSystem::wrapped(double d, int axis) const { return wrapOnce(d, half_[axis], wrap_[axis]); }
 
 inline bool HardSphereSystem::keepEarlier(double tau, double tc, double horizon, double& best) {
   return keepEarlierImpl(tau, tc, horizon, best);
@@ -557,8 +556,10 @@ void HardSphereSystem::predict(Index i) {
       // takes the other, cancellation-free form -(b + sqrt) / a.
       const double root = std::sqrt(q.b * q.b - q.a * q.c);
       double tau = q.c / (root - q.b);
-      if (q.a < 0.0 && q.b >= 0.0) [[unlikely]] tau = -(q.b + root) / q.a;
-      if (q.c <= 0.0) [[unlikely]] tau = pairCollisionDelay(q, approachRate(r, u, sd) < 0.0);
+      if (q.a < 0.0 && q.b >= 0.0) [[unlikely]]
+        tau = -(q.b + root) / q.a;
+      if (q.c <= 0.0) [[unlikely]]
+        tau = pairCollisionDelay(q, approachRate(r, u, sd) < 0.0);
       // Accept before both the best so far and j's own event (seed :3173-3180), as a branch-free
       // running minimum: whether a pair wins is as unpredictable as the sign of b.
       const double tc = clock + tau;
@@ -776,8 +777,7 @@ Eigen::Matrix3Xd HardSphereSystem::positions() const {
   for (Index i = 0; i < count(); ++i) {
     const State& s = state_[static_cast<std::size_t>(i)];
     const double dt = clock_ - s.t;
-    out.col(external(i)) =
-        box_.wrap(Eigen::Vector3d(s.x[0] + s.v[0] * dt, s.x[1] + s.v[1] * dt, s.x[2] + s.v[2] * dt));
+    out.col(external(i)) = box_.wrap(Eigen::Vector3d(s.x[0] + s.v[0] * dt, s.x[1] + s.v[1] * dt, s.x[2] + s.v[2] * dt));
   }
   return out;
 }

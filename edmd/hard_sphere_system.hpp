@@ -33,6 +33,7 @@
 // * Masses proportional to O^3 (uniform density), scaled so the mean mass is 1.
 //
 // Units: any consistent set; lengths as given, time in length / speed.
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -40,8 +41,6 @@
 #include <span>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "broadphase/broad_phase.hpp"
 #include "core/box.hpp"
@@ -98,7 +97,7 @@ struct Event {
 
 /// Event counts (cumulative since construction, or of one run() call).
 struct EventCounts {
-  std::int64_t collisions = 0;      ///< binary collisions processed
+  std::int64_t collisions = 0;  ///< binary collisions processed
   std::int64_t wallCollisions = 0;
   std::int64_t checks = 0;          ///< partner checks and invalidated predictions
   std::int64_t exits = 0;           ///< neighbourhood exits (partial list rebuilds)
@@ -202,7 +201,7 @@ class HardSphereSystem {
     double x[3];  // position at local time t (not wrapped until the particle is advanced)
     double t;     // local time
     double v[3];
-    double r0;    // radius at clock 0
+    double r0;  // radius at clock 0
   };
 
   void sortSpatially();

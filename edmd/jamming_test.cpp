@@ -1,11 +1,11 @@
 #include "edmd/jamming_test.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -54,8 +54,8 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   const auto start = std::chrono::steady_clock::now();
   const Index n = spheres.count();
   if (network.particles != n) {
-    throw ConfigError(fmt::format("jamming test: the contact network has {} particles, the packing {}",
-                                  network.particles, n));
+    throw ConfigError(
+        fmt::format("jamming test: the contact network has {} particles, the packing {}", network.particles, n));
   }
   std::vector<int> slot(static_cast<std::size_t>(n), -1);
   std::vector<Index> backbone;
@@ -115,7 +115,8 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     glp_add_cols(lp.p, a.cols);
     for (int r = 1; r <= a.rows; ++r) glp_set_row_bnds(lp.p, r, GLP_DB, 0.0, 1.0);
     std::vector<double> objective(static_cast<std::size_t>(a.cols) + 1, 0.0);
-    for (int e = 1; e <= ne; ++e) objective[static_cast<std::size_t>(a.ja[static_cast<std::size_t>(e)])] += a.ar[static_cast<std::size_t>(e)];
+    for (int e = 1; e <= ne; ++e)
+      objective[static_cast<std::size_t>(a.ja[static_cast<std::size_t>(e)])] += a.ar[static_cast<std::size_t>(e)];
     for (int c = 1; c <= a.cols; ++c) {
       glp_set_col_bnds(lp.p, c, c <= 3 && box.periodic(c - 1) ? GLP_FX : GLP_FR, 0.0, 0.0);  // pin sphere 1
       glp_set_obj_coef(lp.p, c, objective[static_cast<std::size_t>(c)]);
@@ -128,7 +129,8 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     if (result.openingObjective > 0.5) {
       for (int r = 1; r <= a.rows; ++r) result.contactsOpened += glp_get_row_prim(lp.p, r) > 1e-6 ? 1 : 0;
       motionFrom(lp.p);
-      result.verdict = fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
+      result.verdict =
+          fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
     }
   }
   // LP 2: floppy modes, keeping every contact.
@@ -159,8 +161,8 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   }
   if (result.verdict.empty()) {
     result.jammed = true;
-    result.verdict = fmt::format("jammed (collectively, first order: {} backbone spheres, {} contacts)",
-                                 backbone.size(), a.rows);
+    result.verdict =
+        fmt::format("jammed (collectively, first order: {} backbone spheres, {} contacts)", backbone.size(), a.rows);
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
@@ -171,8 +173,8 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   const auto start = std::chrono::steady_clock::now();
   const Index n = spheres.count();
   if (network.particles != n) {
-    throw ConfigError(fmt::format("jamming test: the contact network has {} particles, the packing {}",
-                                  network.particles, n));
+    throw ConfigError(
+        fmt::format("jamming test: the contact network has {} particles, the packing {}", network.particles, n));
   }
   LoadTestResult result;
   result.motion = Eigen::Matrix3Xd::Zero(3, n);
@@ -292,11 +294,11 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   }
   result.largestDisplacement = worst;
   result.jammed = worst <= options.displacementLimit;
-  result.verdict = result.jammed
-                       ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
-                                     options.displacementLimit, 2 * options.loads)
-                       : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
-                                     result.displaced, options.displacementLimit, worst);
+  result.verdict =
+      result.jammed ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
+                                  options.displacementLimit, 2 * options.loads)
+                    : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
+                                  result.displaced, options.displacementLimit, worst);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

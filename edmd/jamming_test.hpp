@@ -13,11 +13,10 @@
 // Jammed iff both optima vanish. Contacts are treated as exact (gaps h = 0): the non-randomised test
 // for ideal packings, eq. 4.11 (:4573-4597), appropriate at p >= 1e10 where gaps are ~1e-10 D and below
 // what the LP could resolve anyway (:11163-11166). Strict jamming (box deformation) is not tested.
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/box.hpp"
 #include "edmd/contact_network.hpp"
@@ -55,7 +54,7 @@ struct LoadTestResult {
   double largestDisplacement = 0.0;  ///< in mean diameters, over all loads
   Index displaced = 0;               ///< spheres moved beyond the limit by the worst load
   Index constraints = 0;
-  Eigen::Matrix3Xd motion;           ///< the worst load's displacement (3 x N, length units)
+  Eigen::Matrix3Xd motion;  ///< the worst load's displacement (3 x N, length units)
   double seconds = 0.0;
 };
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,

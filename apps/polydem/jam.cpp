@@ -1,10 +1,10 @@
 // polydem jam: Lubachevsky-Stillinger compression of hard spheres to jamming (or to a target packing
 // fraction) with the event-driven engine of edmd/, then the contact network and rattlers of the result.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
@@ -166,10 +166,11 @@ Runner addJam(CLI::App& app) {
     Stopwatch clock;
     double lastPrint = -1e300;
     auto line = [&](const edmd::Progress& p) {
-      fmt::print("phi {:.6f}  p {:>10}  phiJ~ {:.6f}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
-                 "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
-                 p.packingFraction, fmtPressure(p.pressure), p.jammingEstimate, p.rate, p.collisionsPerParticle,
-                 p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision, p.wallSeconds);
+      fmt::print(
+          "phi {:.6f}  p {:>10}  phiJ~ {:.6f}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
+          "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
+          p.packingFraction, fmtPressure(p.pressure), p.jammingEstimate, p.rate, p.collisionsPerParticle,
+          p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision, p.wallSeconds);
       std::fflush(stdout);
     };
     edmd::Progress lastShown;
@@ -187,10 +188,11 @@ Runner addJam(CLI::App& app) {
     edmd::EquilibriumRun eq;
     if (opt->runCollisions > 0.0) {
       eq = edmd::runAtFixedDensity(system, opt->runCollisions);
-      fmt::print("fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
-                 "{:.3g} events/s, {:.2f} s\n",
-                 opt->runCollisions, fmtPressure(eq.pressure), fmtPressure(pressure), eq.collisionsPerSecond,
-                 eq.eventsPerSecond, eq.wallSeconds);
+      fmt::print(
+          "fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
+          "{:.3g} events/s, {:.2f} s\n",
+          opt->runCollisions, fmtPressure(eq.pressure), fmtPressure(pressure), eq.collisionsPerSecond,
+          eq.eventsPerSecond, eq.wallSeconds);
       pressure = eq.pressure;
     }
 
@@ -216,8 +218,9 @@ Runner addJam(CLI::App& app) {
                net.meanCoordination());
     fmt::print("rattlers (< {} contacts)  {} ({:.2f}%)\n", contactOptions.minContacts, n - net.backbone,
                100.0 * net.rattlerFraction());
-    fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N' {:+d}) = {}\n", net.backbone,
-               net.backboneContacts, net.backboneCoordination(), 1 - net.periodicAxes, net.isostaticExcess());
+    fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N' {:+d}) = {}\n",
+               net.backbone, net.backboneContacts, net.backboneCoordination(), 1 - net.periodicAxes,
+               net.isostaticExcess());
     fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
                system.maxOverlapSeen());
 

@@ -1,13 +1,14 @@
 // Lubachevsky-Stillinger compression of small packings to jamming, and the contact network analysis.
-#include <cmath>
-#include <random>
+#include "edmd/compression.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
 
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/size_distribution.hpp"
-#include "edmd/compression.hpp"
 #include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
 #include "edmd/jamming_test.hpp"
@@ -50,8 +51,13 @@ JamResult jam(const std::vector<double>& radii, const std::string& schedule, dou
   const Eigen::VectorXd radius = system.radii();
   ContactOptions contact;
   contact.relativeGap = defaultContactGap(r.last.pressure);
-  return {system.packingFraction(), r.last.pressure, analyseContacts(SphereView{x, radius}, c.box, contact),
-          r.counts.collisions, c.box, x, radius};
+  return {system.packingFraction(),
+          r.last.pressure,
+          analyseContacts(SphereView{x, radius}, c.box, contact),
+          r.counts.collisions,
+          c.box,
+          x,
+          radius};
 }
 
 TEST(Compression, SmallMonodispersePackingJamsIsostatic) {

@@ -1,14 +1,15 @@
 // The event-driven engine: closed-form 2- and 3-sphere cases, periodic wrap, walls, conservation laws,
 // invariants under growth, backend independence, the watchdog and input checks.
-#include <cmath>
-#include <random>
+#include "edmd/hard_sphere_system.hpp"
 
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
 
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "edmd/compression.hpp"
-#include "edmd/hard_sphere_system.hpp"
 
 namespace polydem::edmd {
 namespace {
@@ -266,20 +267,22 @@ TEST(HardSphereSystem, WatchdogNamesTheParticle) {
 TEST(HardSphereSystem, RejectsBadInput) {
   const Box box = Box::cubic(10.0, Boundary::Periodic);
   // Overlap.
-  EXPECT_THROW(HardSphereSystem(box, columns({{2, 5, 5}, {2.9, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
-                                Eigen::Matrix3Xd::Zero(3, 2)),
-               ConfigError);
+  EXPECT_THROW(
+      HardSphereSystem(box, columns({{2, 5, 5}, {2.9, 5, 5}}), Eigen::Vector2d(0.5, 0.5), Eigen::Matrix3Xd::Zero(3, 2)),
+      ConfigError);
   // A sphere wider than a quarter of the box: periodic images would be ambiguous.
-  EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, 2.6), Eigen::Matrix3Xd::Zero(3, 1)),
-               ConfigError);
+  EXPECT_THROW(
+      HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, 2.6), Eigen::Matrix3Xd::Zero(3, 1)),
+      ConfigError);
   // Size mismatch and bad radius.
   EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::Vector2d(0.5, 0.5), Eigen::Matrix3Xd::Zero(3, 1)),
                ConfigError);
-  EXPECT_THROW(HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, -1.0), Eigen::Matrix3Xd::Zero(3, 1)),
-               ConfigError);
+  EXPECT_THROW(
+      HardSphereSystem(box, columns({{5, 5, 5}}), Eigen::VectorXd::Constant(1, -1.0), Eigen::Matrix3Xd::Zero(3, 1)),
+      ConfigError);
   // Touching within round-off is fine.
-  EXPECT_NO_THROW(HardSphereSystem(box, columns({{2, 5, 5}, {3, 5, 5}}), Eigen::Vector2d(0.5, 0.5),
-                                   Eigen::Matrix3Xd::Zero(3, 2)));
+  EXPECT_NO_THROW(
+      HardSphereSystem(box, columns({{2, 5, 5}, {3, 5, 5}}), Eigen::Vector2d(0.5, 0.5), Eigen::Matrix3Xd::Zero(3, 2)));
 }
 
 }  // namespace

@@ -1,11 +1,12 @@
 // Closed-form collision, exit and wall times against brute-force time stepping, and the collision rule.
-#include <cmath>
-#include <random>
+#include "edmd/kinematics.hpp"
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
+
 #include "edmd/event_queue.hpp"
-#include "edmd/kinematics.hpp"
 
 namespace polydem::edmd {
 namespace {
@@ -145,7 +146,7 @@ TEST(ExitDelay, MatchesTimeStepping) {
     }
   }
   const double zero[3] = {0.0, 0.0, 0.0};
-  EXPECT_EQ(exitDelay(zero, zero, 1.0, 0.0, 1.5), kNever);  // at rest, not growing
+  EXPECT_EQ(exitDelay(zero, zero, 1.0, 0.0, 1.5), kNever);       // at rest, not growing
   EXPECT_DOUBLE_EQ(exitDelay(zero, zero, 1.0, 0.25, 1.5), 2.0);  // grows into the bound
   const double out[3] = {0.6, 0.0, 0.0};
   EXPECT_EQ(exitDelay(out, zero, 1.0, 0.0, 1.5), 0.0);  // already outside
