@@ -27,7 +27,7 @@
 // friction) and a flag per cross pair, a few per cent of the pairs in Morton order. Rejected, after
 // measuring: per-thread force buffers reduced afterwards (not bit-identical, T x 3N traffic); storing
 // every pair force and gathering them through the transposed list (bit-identical too, but the gather's
-// scattered reads of a 3P-double array made the force loop 1.5x more expensive in CPU time); atomics
+// scattered reads of a 3P-double array made a one-thread run cost about 1.5x the serial CPU time); atomics
 // (slow, order-dependent); colouring (a colouring per rebuild). Walls stay serial (few).
 #include <cstddef>
 #include <cstdint>

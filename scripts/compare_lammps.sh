@@ -9,7 +9,7 @@
 #   mono   monodisperse, RSA at 0.3, soft compression to packing fraction 0.6 (RSA cannot reach 0.6)
 #   uv20   uniform volume f(r) ~ r^-3, omega = 20, RSA directly at 0.6 (non-overlapping start)
 #   uv50   the same with omega = 50
-#   uv20c  uv20 from RSA at 0.5 softly compressed to 0.6 (an overlapping, contact-rich start)
+#   uv20c  uv20 from RSA at 0.5 softly compressed to 0.6 (starts with the small overlaps it leaves)
 #   uv50c  uv50 likewise
 #
 # Per scene: (1) `polydem relax benchmarks/lammps/prepare.toml` writes the start (positions, radii,
