@@ -1,5 +1,7 @@
 #include "edmd/hard_sphere_system.hpp"
 
+#include "core/morton.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -55,17 +57,6 @@ inline bool keepEarlierImpl(double tau, double tc, double horizon, double& best)
   return false;
 }
 #endif
-
-// Spread the low 21 bits of v so that two zero bits separate consecutive ones (Morton interleave).
-std::uint64_t spreadBits(std::uint64_t v) {
-  v &= 0x1fffff;
-  v = (v | v << 32) & 0x1f00000000ffffULL;
-  v = (v | v << 16) & 0x1f0000ff0000ffULL;
-  v = (v | v << 8) & 0x100f00f00f00f00fULL;
-  v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-  v = (v | v << 2) & 0x1249249249249249ULL;
-  return v;
-}
 
 }  // namespace
 
@@ -302,12 +293,7 @@ void HardSphereSystem::sortSpatially() {
   std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) {
     const State& s = state_[static_cast<std::size_t>(i)];
-    std::uint64_t key = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double f = std::clamp(s.x[k] / length_[k], 0.0, 1.0);
-      key |= spreadBits(static_cast<std::uint64_t>(f * 1023.999)) << k;
-    }
-    keys[static_cast<std::size_t>(i)] = {key, i};
+    keys[static_cast<std::size_t>(i)] = {mortonKey(s.x, box_, 10), i};
   }
   std::sort(keys.begin(), keys.end());
   std::vector<State> state(state_.size());

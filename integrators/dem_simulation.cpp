@@ -1,5 +1,7 @@
 #include "integrators/dem_simulation.hpp"
 
+#include "core/morton.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,15 +27,6 @@ double resolveSkin(double skin, const ParticleStore& particles) {
   if (skin >= 0.0) return skin;
   if (particles.count() == 0) return 0.0;  // the constructor reports the empty store
   return 0.2 * particles.radius().minCoeff();
-}
-
-std::uint64_t spreadBits(std::uint64_t v) {  // 10 bits -> every third bit of 30
-  v &= 0x3ff;
-  v = (v | (v << 16)) & 0x30000ff;
-  v = (v | (v << 8)) & 0x300f00f;
-  v = (v | (v << 4)) & 0x30c30c3;
-  v = (v | (v << 2)) & 0x9249249;
-  return v;
 }
 
 std::string faceName(int face) { return fmt::format("{}{}", (face & 1) ? "+" : "-", "xyz"[face >> 1]); }
@@ -101,13 +94,7 @@ std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box) 
   const auto n = static_cast<Index>(centres.cols());
   std::vector<std::uint64_t> code(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) {
-    std::uint64_t c = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double s = std::clamp(centres(k, i) / box.length(k), 0.0, 1.0);
-      const auto cell = static_cast<std::uint64_t>(std::min(1023.0, std::floor(s * 1024.0)));
-      c |= spreadBits(cell) << k;
-    }
-    code[static_cast<std::size_t>(i)] = c;
+    code[static_cast<std::size_t>(i)] = mortonKey(centres.col(i).data(), box, 10);
   }
   std::vector<Index> order(static_cast<std::size_t>(n));
   std::iota(order.begin(), order.end(), Index{0});

@@ -30,6 +30,7 @@
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
+#include "core/morton.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::app {
@@ -57,24 +58,8 @@ struct BenchScene {
 /// start-up, so that particles close in space are close in memory.
 void mortonSort(Configuration& c) {
   const Index n = static_cast<Index>(c.radius.size());
-  auto spread = [](std::uint64_t v) {  // 21 bits -> every third bit
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffULL;
-    v = (v | v << 16) & 0x1f0000ff0000ffULL;
-    v = (v | v << 8) & 0x100f00f00f00f00fULL;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-    v = (v | v << 2) & 0x1249249249249249ULL;
-    return v;
-  };
   std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) {
-    std::uint64_t key = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double f = std::clamp(c.position(k, i) / c.box.length(k), 0.0, 1.0 - 1e-12);
-      key |= spread(static_cast<std::uint64_t>(f * (1 << 21))) << k;
-    }
-    keys[static_cast<std::size_t>(i)] = {key, i};
-  }
+  for (Index i = 0; i < n; ++i) keys[static_cast<std::size_t>(i)] = {mortonKey(c.position.col(i).data(), c.box, 21), i};
   std::sort(keys.begin(), keys.end());
   Eigen::Matrix3Xd position(3, n);
   Eigen::VectorXd radius(n);
