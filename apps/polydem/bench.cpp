@@ -1,19 +1,27 @@
 // polydem bench: named benchmark suites that write a self-contained report (CSV, PNG via gnuplot,
 // Markdown summary with the machine, the command line and the date).
 //
-//   quick     CI smoke run: every backend on small scenes, pair sets must agree (exit 1 otherwise)
+//   quick     CI smoke run (< 1 min): every backend on small scenes, pair sets must agree (exit 1
+//             otherwise), plus small trel and model cases
 //   levels    seed 000 Fig. 2.5: slowdown factor against the number of HGrid levels L for uniform
 //             radius and uniform volume, omega = 50, measured beside the cost models' predictions
 //   backends  time and memory per particle of every backend across size distributions and densities
 //   optimiser the cost model's choice against an exhaustive measured search over L and mode
 //   scaling   cost per particle against N (10^4..10^6) and against the size ratio, vs mono linked cell
-//   paper     levels + backends at the seed's sizes (N = 125,001)
+//   trel      seed 000 Fig. 2.6: DEM time relative to the monodisperse system against N (bi, uniform
+//             volume omega 10 and 50), with the broad-phase / force / integration split
+//   model     seed 000 2.2.5: cost model against counted work and time for Top-Down, Bottom-Up, the
+//             constant-m rule and linked cell over power laws alpha = 0..-3, omega = 10, 100
+//   paper     levels + trel + model (the three seed reproductions)
+//   full      every suite
+// Dense states come from event-driven compression when random sequential addition stalls (--dense).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <random>
 #include <sstream>
@@ -30,7 +38,11 @@
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
+#include "core/io/particle_file.hpp"
 #include "core/morton.hpp"
+#include "edmd/compression.hpp"
+#include "integrators/dem_simulation.hpp"
+#include "integrators/initial_velocities.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::app {
@@ -45,6 +57,11 @@ struct BenchOptions {
   double packing = 0.0;  // 0: the suite's default
   int maxLevels = 16;
   std::string commandLine;
+  std::vector<std::string> inputs;  ///< particle files benchmarked as they are (levels, backends, model)
+  std::string cacheDir;             ///< dense states written/reused here ("" = <out>/states)
+  std::string dense = "edmd";       ///< when RSA stalls: edmd (compress to the target) or rsa (use less dense)
+  std::vector<Index> counts;        ///< N values of the trel suite (empty: the suite's default)
+  int steps = 0;                    ///< DEM steps per timed round (0: the suite's default)
 };
 
 struct BenchScene {
@@ -71,10 +88,33 @@ void mortonSort(Configuration& c) {
   c.radius.swap(radius);
 }
 
-/// A non-overlapping configuration by random sequential addition at `packing`, or, when RSA stalls,
-/// at the densest packing it reaches in steps of 0.04 (reported: the seed's dense states came from
-/// event-driven compression, which `polydem jam` provides). Particles are Morton-sorted.
-BenchScene makeBenchScene(const DistributionSpec& spec, Index count, double packing, std::uint64_t seed) {
+/// Maxwell-Boltzmann velocities (masses ~ r^3), centre-of-mass drift removed: the EDMD start.
+Eigen::Matrix3Xd thermalVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
+  const Index n = static_cast<Index>(radius.size());
+  std::mt19937_64 rng(seed ^ 0x2545f4914f6cdd1dULL);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Matrix3Xd v(3, n);
+  const Eigen::VectorXd mass = radius.array().cube();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
+    momentum += mass[i] * v.col(i);
+  }
+  if (n > 1) v.colwise() -= momentum / mass.sum();
+  return v;
+}
+
+std::filesystem::path stateCache(const BenchOptions& opt) {
+  return opt.cacheDir.empty() ? std::filesystem::path(opt.out) / "states" : std::filesystem::path(opt.cacheDir);
+}
+
+/// A non-overlapping configuration at `packing`: random sequential addition when it reaches the target;
+/// otherwise (dense = edmd) Lubachevsky-Stillinger growth with the event-driven engine from the densest
+/// RSA state, stopped exactly at the target (the seed's preparation, ch. 2.1.4; the same as
+/// `polydem jam --target-phi`), or (dense = rsa) the densest RSA state in steps of 0.04. Compressed
+/// states are cached as HDF5 files keyed by distribution, N, packing and seed. Particles are Morton-sorted.
+BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec, Index count, double packing,
+                          std::uint64_t seed) {
   const auto dist = makeDistribution(spec);
   PackingRequest request;
   request.radii = dist->sample(count, Sampling::Systematic, seed);
@@ -82,9 +122,10 @@ BenchScene makeBenchScene(const DistributionSpec& spec, Index count, double pack
   std::shuffle(request.radii.begin(), request.radii.end(), rng);
   request.boundaries = {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
   request.seed = seed;
-  request.maxAttemptsPerParticle = 2000;  // fail fast when RSA stalls, then try less dense
+  request.maxAttemptsPerParticle = 2000;  // fail fast when RSA stalls
   BenchScene scene;
   scene.label = spec.kind == "mono" ? "mono" : fmt::format("{} omega={:g}", spec.kind, spec.omega);
+  if (spec.kind == "power-law") scene.label += fmt::format(" alpha={:g}", spec.alpha);
   // Small wide systems: a periodic box must hold two cut-offs; use walls when it cannot.
   double volume = 0.0;
   for (double r : request.radii) volume += 4.0 / 3.0 * kPi * r * r * r;
@@ -93,19 +134,76 @@ BenchScene makeBenchScene(const DistributionSpec& spec, Index count, double pack
     request.boundaries = {Boundary::Wall, Boundary::Wall, Boundary::Wall};
     scene.label += " (walls)";
   }
+  const std::filesystem::path cached =
+      stateCache(opt) / fmt::format("{}_w{:g}_a{:g}_n{}_phi{:g}_s{}{}.h5", spec.kind, spec.omega, spec.alpha, count,
+                                    packing, seed, request.boundaries[0] == Boundary::Wall ? "_walls" : "");
+  if (opt.dense == "edmd" && std::filesystem::exists(cached)) {
+    const io::ParticleData data = io::readParticles(cached);
+    scene.config.box = data.box;
+    scene.config.position = data.position;
+    scene.config.radius = data.radius;
+    mortonSort(scene.config);
+    scene.packing = packing;
+    scene.placement = fmt::format("edmd (cached {})", cached.filename().string());
+    return scene;
+  }
   for (double phi = packing; phi > 0.05; phi -= 0.04) {
     request.packingFraction = phi;
     try {
       scene.config = randomSequentialAddition(request);
-      mortonSort(scene.config);
-      scene.packing = phi;
-      scene.placement = phi == packing ? "rsa" : fmt::format("rsa (stalled at {:.2f}, used {:.2f})", packing, phi);
-      return scene;
     } catch (const ConfigError&) {
-      // RSA stalled: try a little less dense.
+      continue;  // RSA stalled: try a little less dense
     }
+    scene.packing = phi;
+    if (phi == packing) {
+      scene.placement = "rsa";
+    } else if (opt.dense == "edmd") {
+      Stopwatch clock;
+      edmd::HardSphereSystem system(scene.config.box, scene.config.position, scene.config.radius,
+                                    thermalVelocities(scene.config.radius, seed), edmd::SystemOptions{});
+      edmd::CompressionOptions copt;
+      copt.schedule = {{1e-2, std::numeric_limits<double>::infinity()}};
+      copt.targetPackingFraction = packing;
+      const edmd::CompressionResult r = edmd::compress(system, copt);
+      scene.config.position = system.positions();
+      scene.config.radius = system.radii();
+      scene.packing = system.packingFraction();
+      scene.placement = fmt::format("edmd from rsa {:.2f}", phi);
+      fmt::print("  {} N = {}: RSA stalled, event-driven compression {:.2f} -> {:.3f} ({}, {:.0f} collisions per "
+                 "particle, {:.1f} s)\n",
+                 scene.label, count, phi, scene.packing, r.stopReason,
+                 static_cast<double>(r.counts.collisions) / count, clock.seconds());
+      std::filesystem::create_directories(cached.parent_path());
+      io::ParticleData data;
+      data.box = scene.config.box;
+      data.position = scene.config.position;
+      data.radius = scene.config.radius;
+      data.id.resize(static_cast<std::size_t>(count));
+      for (Index i = 0; i < count; ++i) data.id[static_cast<std::size_t>(i)] = i;
+      data.attributes["generator"] = "polydem bench (event-driven compression, rate 1e-2)";
+      data.attributes["distribution"] = dist->describe();
+      io::writeParticles(cached, data);
+    } else {
+      scene.placement = fmt::format("rsa (stalled at {:.2f}, used {:.2f})", packing, phi);
+    }
+    mortonSort(scene.config);
+    return scene;
   }
   throw ConfigError(fmt::format("could not place {} at any packing fraction", scene.label));
+}
+
+/// A particle file benchmarked as it is (Morton-sorted like every scene).
+BenchScene sceneFromFile(const std::string& file) {
+  const io::ParticleData data = io::readParticles(file);
+  BenchScene scene;
+  scene.label = std::filesystem::path(file).filename().string();
+  scene.config.box = data.box;
+  scene.config.position = data.position;
+  scene.config.radius = data.radius;
+  mortonSort(scene.config);
+  scene.packing = (4.0 / 3.0 * kPi * data.radius.array().cube().sum()) / data.box.volume();
+  scene.placement = "file " + file;
+  return scene;
 }
 
 std::string machineDescription() {
@@ -175,12 +273,9 @@ struct LevelsOutcome {
   double speedupOverOneLevel = 1.0;
 };
 
-LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, std::ofstream& csv,
-                         std::string& markdown) {
-  const Index count = opt.count > 0 ? opt.count : 125001;
-  const double packing = opt.packing > 0 ? opt.packing : 0.62;
-  Stopwatch prep;
-  const BenchScene scene = makeBenchScene(spec, count, packing, 1);
+LevelsOutcome levelsCase(const BenchOptions& opt, const BenchScene& scene, const std::string& series, double omega,
+                         std::ofstream& csv, std::string& markdown) {
+  const Index count = static_cast<Index>(scene.config.radius.size());
   const Configuration& c = scene.config;
   const SphereView spheres{c.position, c.radius};
   std::vector<double> radii(c.radius.data(), c.radius.data() + c.radius.size());
@@ -188,8 +283,7 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, 
   const double K21 = 0.3;  // the seed's ch. 2.1 value for L (m + K)
   const auto appendix = broadphase::appendixProcedure(radii, volume, 0.0, K21, opt.maxLevels);
   const auto psd = broadphase::CostModelPsd::sample(radii, volume, 0.0);
-  fmt::print("{}: N = {}, packing {:.3f} ({}), prepared in {:.1f} s\n", scene.label, count, scene.packing,
-             scene.placement, prep.seconds());
+  fmt::print("{}: N = {}, packing {:.3f} ({})\n", scene.label, count, scene.packing, scene.placement);
 
   struct Row {
     int L;
@@ -226,7 +320,7 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const DistributionSpec& spec, 
   outcome.label = scene.label;
   for (const Row& r : rows) {
     csv << fmt::format("{},{},{},{:.6f},{:.6f},{:.5f},{:.4f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{:.5f},{}\n",
-                       spec.kind, spec.omega, r.L, scene.packing, r.m, 1e6 * r.t / count, r.spread, r.t / tMin,
+                       series, omega, r.L, scene.packing, r.m, 1e6 * r.t / count, r.spread, r.t / tMin,
                        r.model21 / m21Min, r.model22 / m22Min, static_cast<double>(r.tcd) / count,
                        static_cast<double>(r.tca) / count, r.modelCd, r.modelCa, r.model22, r.sizes);
     if (r.t == tMin) outcome.bestLevels = r.L;
@@ -264,23 +358,41 @@ int runLevels(const BenchOptions& opt, std::string& markdown) {
       "| system | packing | fastest L | speed-up over L = 1 | T_cd/N counted / model | T_ca/N counted / model |"
       " model ONL (ch. 2.1) | model best L (ch. 2.2) |\n"
       "| --- | --- | --- | --- | --- | --- | --- | --- |\n";
-  for (const char* kind : {"uniform-volume", "uniform-radius"}) {
-    DistributionSpec spec;
-    spec.kind = kind;
-    spec.omega = 50.0;
-    levelsCase(opt, spec, csv, markdown);
+  std::vector<std::string> series;
+  if (!opt.inputs.empty()) {
+    for (const std::string& file : opt.inputs) {
+      const BenchScene scene = sceneFromFile(file);
+      series.push_back(scene.label);
+      const double omega = scene.config.radius.maxCoeff() / scene.config.radius.minCoeff();
+      levelsCase(opt, scene, scene.label, omega, csv, markdown);
+    }
+  } else {
+    const Index count = opt.count > 0 ? opt.count : 125001;
+    const double packing = opt.packing > 0 ? opt.packing : 0.62;
+    for (const char* kind : {"uniform-volume", "uniform-radius"}) {
+      DistributionSpec spec;
+      spec.kind = kind;
+      spec.omega = 50.0;
+      Stopwatch prep;
+      const BenchScene scene = makeBenchScene(opt, spec, count, packing, 1);
+      fmt::print("{} prepared in {:.1f} s\n", scene.label, prep.seconds());
+      series.push_back(kind);
+      levelsCase(opt, scene, kind, spec.omega, csv, markdown);
+    }
   }
   csv.close();
   std::ofstream gp(dir / "levels.gp");
   gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "levels.png").string()
-     << "'\nset logscale y\nset xlabel 'number of levels L'\nset ylabel 'slowdown factor'\nset key top left\n"
-     << "set title 'HGrid slowdown against L (omega = 50), measured vs cost models'\n"
-     << "plot '" << (dir / "levels.csv").string()
-     << "' using (strcol(1) eq 'uniform-volume' ? $3 : 1/0):8 with linespoints title 'UV measured', "
-        "'' using (strcol(1) eq 'uniform-volume' ? $3 : 1/0):10 with lines dt 2 title 'UV model eq. 2.35', "
-        "'' using (strcol(1) eq 'uniform-volume' ? $3 : 1/0):9 with lines dt 3 title 'UV model L(m+K)', "
-        "'' using (strcol(1) eq 'uniform-radius' ? $3 : 1/0):8 with linespoints title 'US measured', "
-        "'' using (strcol(1) eq 'uniform-radius' ? $3 : 1/0):10 with lines dt 2 title 'US model eq. 2.35'\n";
+     << "'\nset termoption noenhanced\nset logscale y\nset xlabel 'number of levels L'\nset ylabel 'slowdown factor'\n"
+     << "set key top left\nset title 'HGrid slowdown against L, measured vs cost models'\nplot ";
+  for (std::size_t k = 0; k < series.size(); ++k) {
+    const std::string sel = fmt::format("(strcol(1) eq '{}' ? $3 : 1/0)", series[k]);
+    gp << (k ? ", " : "") << "'" << (dir / "levels.csv").string() << "' using " << sel << ":8 with linespoints lc "
+       << k + 1 << " title '" << series[k] << " measured', '' using " << sel << ":10 with lines dt 2 lc " << k + 1
+       << " title '" << series[k] << " model eq. 2.35', '' using " << sel << ":9 with lines dt 3 lc " << k + 1
+       << " title '" << series[k] << " model L(m+K)'";
+  }
+  gp << "\n";
   gp.close();
   markdown += runGnuplot(dir / "levels.gp") ? "\n![levels](levels.png)\n\n" : "\n(gnuplot not available: no plot)\n\n";
   return 0;
@@ -318,12 +430,25 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
     ++plotted;
   }
   matrix << "\n";
-  for (const auto& [kind, omega] : dists) {
-    for (double packing : packings) {
-      DistributionSpec spec;
-      spec.kind = kind;
-      spec.omega = omega;
-      const BenchScene scene = makeBenchScene(spec, count, packing, 2);
+  std::vector<std::function<BenchScene()>> makers;
+  if (!opt.inputs.empty()) {
+    for (const std::string& file : opt.inputs) makers.push_back([file] { return sceneFromFile(file); });
+  } else {
+    for (const auto& [kind, omega] : dists) {
+      for (double packing : packings) {
+        makers.push_back([&opt, kind, omega, count, packing] {
+          DistributionSpec spec;
+          spec.kind = kind;
+          spec.omega = omega;
+          return makeBenchScene(opt, spec, count, packing, 2);
+        });
+      }
+    }
+  }
+  for (const auto& make : makers) {
+    {
+      const BenchScene scene = make();
+      const Index count = static_cast<Index>(scene.config.radius.size());
       const SphereView spheres{scene.config.position, scene.config.radius};
       const double skin = 0.1 * scene.config.radius.minCoeff();
       markdown += fmt::format("| {} | {:.2f} |", scene.label, scene.packing);
@@ -348,7 +473,8 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
           fmt::print(stderr, "MISMATCH: {} reports {} pairs, expected {} on {} at {}\n", name, t.pairs, reference,
                      scene.label, scene.packing);
         }
-        csv << fmt::format("{},{},{:.4f},{},{},{:.5f},{:.4f},{},{:.4f},{:.4f},{:.2f},\"{}\"\n", kind, omega,
+        csv << fmt::format("{},{:.4g},{:.4f},{},{},{:.5f},{:.4f},{},{:.4f},{:.4f},{:.2f},\"{}\"\n", scene.label,
+                           scene.config.radius.maxCoeff() / scene.config.radius.minCoeff(),
                            scene.packing, scene.placement, name, 1e6 * t.seconds / count, t.spread, t.pairs,
                            static_cast<double>(t.pairTests) / count, static_cast<double>(t.cellAccesses) / count,
                            static_cast<double>(t.bytes) / count, t.description);
@@ -416,7 +542,7 @@ int runOptimiser(const BenchOptions& opt, std::string& markdown) {
     spec.kind = c.kind;
     spec.omega = c.omega;
     spec.alpha = c.alpha;
-    const BenchScene scene = makeBenchScene(spec, count, packing, 3);
+    const BenchScene scene = makeBenchScene(opt, spec, count, packing, 3);
     const SphereView spheres{scene.config.position, scene.config.radius};
     const double skin = 0.1 * scene.config.radius.minCoeff();
     std::vector<double> radii(scene.config.radius.data(), scene.config.radius.data() + count);
@@ -502,13 +628,13 @@ int runScaling(const BenchOptions& opt, std::string& markdown) {
       packing, opt.repeat);
   for (Index n : sizes) {
     DistributionSpec mono;
-    const BenchScene m = makeBenchScene(mono, n, packing, 4);
+    const BenchScene m = makeBenchScene(opt, mono, n, packing, 4);
     auto lc = broadphase::makeBroadPhase("linked-cell");
     const Timed tm = timeBackend(*lc, {m.config.position, m.config.radius}, m.config.box, 0.1, opt.repeat);
     DistributionSpec uv;
     uv.kind = "uniform-volume";
     uv.omega = 50;
-    const BenchScene p = makeBenchScene(uv, n, packing, 4);
+    const BenchScene p = makeBenchScene(opt, uv, n, packing, 4);
     auto au = broadphase::makeBroadPhase("auto");
     const Timed tp = timeBackend(*au, {p.config.position, p.config.radius}, p.config.box, 0.1, opt.repeat);
     csv << fmt::format("N,mono,1,{},{:.3f},linked-cell,{:.5f},{:.3f},{:.1f},1\n", n, m.packing, 1e6 * tm.seconds / n,
@@ -527,14 +653,14 @@ int runScaling(const BenchOptions& opt, std::string& markdown) {
       "| --- | --- | --- | --- | --- |\n",
       n, packing);
   DistributionSpec mono;
-  const BenchScene m = makeBenchScene(mono, n, packing, 5);
+  const BenchScene m = makeBenchScene(opt, mono, n, packing, 5);
   auto lc = broadphase::makeBroadPhase("linked-cell");
   const Timed tm = timeBackend(*lc, {m.config.position, m.config.radius}, m.config.box, 0.1, opt.repeat);
   for (double omega : {1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0}) {
     DistributionSpec uv;
     uv.kind = "uniform-volume";
     uv.omega = omega;
-    const BenchScene p = makeBenchScene(uv, n, packing, 5);
+    const BenchScene p = makeBenchScene(opt, uv, n, packing, 5);
     const SphereView sp{p.config.position, p.config.radius};
     auto au = broadphase::makeBroadPhase("auto");
     const Timed tp = timeBackend(*au, sp, p.config.box, 0.1, opt.repeat);
@@ -555,20 +681,313 @@ int runScaling(const BenchOptions& opt, std::string& markdown) {
   return 0;
 }
 
+// ---- trel: seed 000 Fig. 2.6, DEM time relative to the monodisperse system against N -------------------
+
+struct DemCase {
+  std::string label;
+  std::string backend;
+  std::unique_ptr<integrators::DemSimulation> sim;
+  std::vector<double> cpu;  ///< CPU seconds per timed round
+  integrators::PhaseTimes phases;
+  std::int64_t timedSteps = 0;
+  std::string placement;
+  double packing = 0.0;
+};
+
+/// A DEM run of the seed's ch. 2.1.4 protocol on `scene`: linear elastic normal contacts (no friction, no
+/// rotation), velocities such that two colliding smallest particles reach 1% overlap, dt = t_c,min / 50.
+std::unique_ptr<integrators::DemSimulation> demOn(const BenchScene& scene, const std::string& backend) {
+  const Index n = static_cast<Index>(scene.config.radius.size());
+  ParticleStore particles(n, Features{});
+  particles.position() = scene.config.position;
+  particles.radius() = scene.config.radius;
+  particles.setMassesFromDensity(1.0);
+  integrators::DemSettings settings;
+  settings.contact.stiffness = 1e4;
+  settings.contact.restitution = 1.0;
+  settings.broadPhase = backend;
+  settings.stability.checkInterval = 0;  // timed rounds only; checked once at the end
+  integrators::assignImpactVelocities(contact::ContactModel(settings.contact), particles, 0.01, 7);
+  return std::make_unique<integrators::DemSimulation>(std::move(particles), scene.config.box, settings);
+}
+
+int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) {
+  const std::filesystem::path dir = opt.out;
+  const double packing = opt.packing > 0 ? opt.packing : (quick ? 0.5 : 0.6);
+  const std::vector<Index> counts =
+      !opt.counts.empty() ? opt.counts : (quick ? std::vector<Index>{2000, 5000} : std::vector<Index>{10000, 30000, 100000});
+  const int steps = opt.steps > 0 ? opt.steps : (quick ? 40 : 200);
+  struct System {
+    std::string kind;
+    double omega;
+    std::string backend;
+  };
+  const std::vector<System> systems = {{"mono", 1.0, "linked-cell"},
+                                       {"bi", 10.0, "auto"},
+                                       {"uniform-volume", 10.0, "auto"},
+                                       {"uniform-volume", 50.0, "auto"}};
+  std::ofstream csv(dir / "trel.csv");
+  csv << "system,N,packing,placement,backend,broad_phase_choice,steps,us_per_particle_step,spread,t_rel,"
+         "broad_phase_share,force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle\n";
+  markdown += fmt::format(
+      "## DEM time relative to the monodisperse system against N (seed 000 Fig. 2.6)\n\n"
+      "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere), linear\n"
+      "elastic contacts, 1% impact overlap of the smallest pair, dt = t_c,min / 50, Verlet skin 0.2 r_min.\n"
+      "Each round advances every system {} steps, the systems taking turns (interleaved), {} rounds; thread CPU\n"
+      "time, median over rounds. T_rel = time of the system / time of the monodisperse system of the same N\n"
+      "(linked cell), same number of steps (the seed's definition). Bi: equal volumes of the two sizes, omega = 10\n"
+      "(the seed: L = 2 with the two diameters; here `auto` chooses). The split is broad phase (neighbour-list\n"
+      "rebuilds), force and integration as shares of the loop's wall time (CPU time is not split).\n\n"
+      "| N | system | placement | broad phase | us/particle/step | T_rel | broad phase / force / integration |\n"
+      "| --- | --- | --- | --- | --- | --- | --- |\n",
+      packing, steps, opt.repeat);
+  std::map<std::string, std::vector<std::pair<Index, double>>> trel;
+  for (Index n : counts) {
+    std::vector<DemCase> cases;
+    for (const System& sys : systems) {
+      DistributionSpec spec;
+      spec.kind = sys.kind;
+      spec.omega = sys.omega;
+      Stopwatch prep;
+      const BenchScene scene = makeBenchScene(opt, spec, n, packing, 6);
+      DemCase c;
+      c.label = scene.label;
+      c.backend = sys.backend;
+      c.placement = scene.placement;
+      c.packing = scene.packing;
+      c.sim = demOn(scene, sys.backend);
+      c.sim->advance(std::max(10, steps / 4));  // warm up: contacts form, first rebuilds
+      fmt::print("  N = {} {}: packing {:.3f} ({}), {} ({:.1f} s to prepare)\n", n, scene.label, scene.packing,
+                 scene.placement, c.sim->neighbours().backend().describe(), prep.seconds());
+      cases.push_back(std::move(c));
+    }
+    for (int round = 0; round < opt.repeat; ++round) {
+      for (DemCase& c : cases) {
+        const integrators::PhaseTimes before = c.sim->times();
+        CpuStopwatch clock;
+        c.sim->advance(steps);
+        c.cpu.push_back(clock.seconds());
+        const integrators::PhaseTimes& after = c.sim->times();
+        c.phases.broadPhase += after.broadPhase - before.broadPhase;
+        c.phases.force += after.force - before.force;
+        c.phases.integration += after.integration - before.integration;
+        c.timedSteps += steps;
+      }
+    }
+    const double mono = median(cases.front().cpu);
+    for (DemCase& c : cases) {
+      c.sim->checkStability();
+      const double t = median(c.cpu);
+      // Shares of the phases' wall time: under load wall time includes waiting, CPU time is not split.
+      const double phaseSum = std::max(1e-12, c.phases.broadPhase + c.phases.force + c.phases.integration);
+      const double perStep = 100.0 / phaseSum;
+      const double spread = (*std::max_element(c.cpu.begin(), c.cpu.end()) - *std::min_element(c.cpu.begin(), c.cpu.end())) / t;
+      const std::string choice = c.sim->neighbours().backend().describe();
+      csv << fmt::format("\"{}\",{},{:.4f},\"{}\",{},\"{}\",{},{:.5f},{:.3f},{:.4f},{:.1f},{:.1f},{:.1f},{},{:.3f},{:.1f}\n",
+                         c.label, n, c.packing, c.placement, c.backend, choice, steps,
+                         1e6 * t / (static_cast<double>(steps) * n), spread, t / mono, c.phases.broadPhase * perStep,
+                         c.phases.force * perStep, c.phases.integration * perStep, c.sim->rebuilds(),
+                         static_cast<double>(c.sim->neighbours().list().pairCount()) / n,
+                         static_cast<double>(c.sim->memoryBytes()) / n);
+      markdown += fmt::format("| {} | {} | {} | {} | {:.4f} | {:.2f} | {:.0f}% / {:.0f}% / {:.0f}% |\n", n, c.label,
+                              c.placement, choice, 1e6 * t / (static_cast<double>(steps) * n), t / mono,
+                              c.phases.broadPhase * perStep, c.phases.force * perStep, c.phases.integration * perStep);
+      fmt::print("  N = {} {:<26} {:.4f} us/particle/step  T_rel {:.2f}  (bp {:.0f}%, force {:.0f}%, int {:.0f}%)\n", n,
+                 c.label, 1e6 * t / (static_cast<double>(steps) * n), t / mono, c.phases.broadPhase * perStep,
+                 c.phases.force * perStep, c.phases.integration * perStep);
+      trel[c.label].push_back({n, t / mono});
+    }
+  }
+  csv.close();
+  markdown += "\n| system | T_rel over N | max / min over N |\n| --- | --- | --- |\n";
+  for (const auto& [label, values] : trel) {
+    std::string list;
+    double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+    for (const auto& [n, v] : values) {
+      list += fmt::format("{}{:.2f}", list.empty() ? "" : ", ", v);
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+    markdown += fmt::format("| {} | {} | {:.2f} |\n", label, list, hi / lo);
+  }
+  std::ofstream gp(dir / "trel.gp");
+  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "trel.png").string()
+     << "'\nset termoption noenhanced\nset logscale x\nset xlabel 'N'\nset ylabel 'T_rel = T / T(mono, linked cell)'\n"
+     << "set key top left\nset yrange [0:*]\nset title 'DEM time relative to monodisperse (seed Fig. 2.6), packing "
+     << packing << "'\nplot ";
+  int k = 0;
+  for (const auto& [label, values] : trel) {
+    gp << (k ? ", " : "") << "'" << (dir / "trel.csv").string() << "' using (strcol(1) eq '" << label
+       << "' ? $2 : 1/0):10 with linespoints lw 2 title '" << label << "'";
+    ++k;
+  }
+  gp << "\n";
+  gp.close();
+  markdown += runGnuplot(dir / "trel.gp") ? "\n![trel](trel.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  return 0;
+}
+
+// ---- model: seed 000 §2.2.5, predicted vs measured Top-Down / Bottom-Up across alpha and omega ---------
+
+int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
+  const std::filesystem::path dir = opt.out;
+  const Index count = opt.count > 0 ? opt.count : (quick ? 5000 : 100000);
+  const double packing = opt.packing > 0 ? opt.packing : 0.5;
+  const std::vector<double> alphas = quick ? std::vector<double>{0.0, -3.0} : std::vector<double>{0.0, -1.0, -2.0, -3.0};
+  const std::vector<double> omegas = quick ? std::vector<double>{10.0} : std::vector<double>{10.0, 100.0};
+  const double K = broadphase::modelCostRatio();
+  std::ofstream csv(dir / "model.csv");
+  csv << "alpha,omega,N,packing,placement,method,L,model_T_per_particle,model_pair_tests,model_cell_accesses,"
+         "counted_pair_tests,counted_cell_accesses,counted_T_per_particle,us_per_particle,spread,cell_sizes\n";
+  markdown += fmt::format(
+      "## Cost model against measurement: Top-Down, Bottom-Up and linked cell across alpha and omega "
+      "(seed 000 §2.2.5)\n\n"
+      "Power-law size distributions f(r) ~ r^alpha on [r_min, omega r_min], N = {}, packing {}, skin 0.1 r_min,\n"
+      "periodic. For each mode the optimiser's best L and sizes (eq. 2.35 minimised, K = {:.3f} from the\n"
+      "calibration micro-benchmark); the seed's recommendation 3 (constant particles per cell, Top-Down) at its\n"
+      "best L; linked cell where the model predicts under 3000 tests per particle. Model T/N = T_cd + K T_ca;\n"
+      "counted = the same sum from the grid's own counters on this packing; time = build + findPairs, median of {}.\n\n"
+      "| alpha | omega | method | L | model T/N | counted T/N | us/particle | predicted / measured BU:TD | picked by model | fastest measured |\n"
+      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+      count, packing, K, opt.repeat);
+  for (double omega : omegas) {
+    for (double alpha : alphas) {
+      DistributionSpec spec;
+      spec.kind = "power-law";
+      spec.alpha = alpha;
+      spec.omega = omega;
+      const BenchScene scene = makeBenchScene(opt, spec, count, packing, 8);
+      const SphereView spheres{scene.config.position, scene.config.radius};
+      const double skin = 0.1 * scene.config.radius.minCoeff();
+      std::vector<double> radii(scene.config.radius.data(), scene.config.radius.data() + count);
+      const auto psd = broadphase::CostModelPsd::sample(radii, scene.config.box.volume(), skin);
+      broadphase::OptimiserOptions oo;
+      oo.K = K;
+      oo.maxLevels = 20;
+      const broadphase::OptimiserResult best = broadphase::optimiseHGrid(psd, oo);
+      struct Method {
+        std::string name;
+        broadphase::CrossLevel mode;
+        std::vector<double> sizes;
+        double predicted;
+      };
+      std::vector<Method> methods;
+      auto bestOf = [&](auto pick) {
+        int bestL = 1;
+        double bestT = std::numeric_limits<double>::infinity();
+        for (const auto& row : best.table) {
+          const double t = pick(row).predicted;
+          if (t < bestT * (1.0 - oo.tolerance)) {
+            bestT = t;
+            bestL = row.levels;
+          }
+        }
+        return std::make_pair(bestL, pick(best.table[static_cast<std::size_t>(bestL - 1)]));
+      };
+      const auto [ltd, td] = bestOf([](const broadphase::LevelsRow& r) { return r.topDown; });
+      const auto [lbu, bu] = bestOf([](const broadphase::LevelsRow& r) { return r.bottomUp; });
+      const auto [lcm, cm] = bestOf([](const broadphase::LevelsRow& r) { return r.constantMTopDown; });
+      methods.push_back({fmt::format("top-down optimal"), broadphase::CrossLevel::TopDown, td.cellSizes, td.predicted});
+      methods.push_back({fmt::format("bottom-up optimal"), broadphase::CrossLevel::BottomUp, bu.cellSizes, bu.predicted});
+      methods.push_back({fmt::format("top-down constant m"), broadphase::CrossLevel::TopDown, cm.cellSizes, cm.predicted});
+      const double lcModel = best.table.front().topDown.predicted;
+      if (lcModel < 3000.0) {
+        methods.push_back({"linked cell", broadphase::CrossLevel::TopDown, {psd.maxDiameter()}, lcModel});
+      }
+      const int levelsOf[] = {ltd, lbu, lcm, 1};
+      std::vector<double> times;
+      std::string fastest;
+      double fastestTime = std::numeric_limits<double>::infinity();
+      double tdTime = 0.0, buTime = 0.0;
+      std::vector<std::string> rows;
+      for (std::size_t k = 0; k < methods.size(); ++k) {
+        const Method& m = methods[k];
+        // Linked cell as a one-level grid of the largest diameter: the same counters as the model's L = 1.
+        std::unique_ptr<broadphase::BroadPhase> bp = gridWith(m.mode, m.sizes);
+        const Timed t = timeBackend(*bp, spheres, scene.config.box, skin, opt.repeat);
+        const auto geometry = broadphase::snappedGeometry(m.sizes, scene.config.box.lengths());
+        const auto breakdown = broadphase::costBreakdown(psd, geometry, m.mode);
+        const double counted = (static_cast<double>(t.pairTests) + K * static_cast<double>(t.cellAccesses)) / count;
+        std::string sizes;
+        for (double sz : m.sizes) sizes += fmt::format("{}{:.4g}", sizes.empty() ? "" : ";", sz);
+        csv << fmt::format("{},{},{},{:.4f},\"{}\",{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.5f},{:.3f},{}\n",
+                           alpha, omega, count, scene.packing, scene.placement, m.name, levelsOf[k], m.predicted,
+                           breakdown.pairTests, breakdown.cellAccesses, static_cast<double>(t.pairTests) / count,
+                           static_cast<double>(t.cellAccesses) / count, counted, 1e6 * t.seconds / count, t.spread,
+                           sizes);
+        if (k == 0) tdTime = t.seconds;
+        if (k == 1) buTime = t.seconds;
+        if (t.seconds < fastestTime) {
+          fastestTime = t.seconds;
+          fastest = fmt::format("{} (L = {})", m.name, levelsOf[k]);
+        }
+        rows.push_back(fmt::format("| {:g} | {:g} | {} | {} | {:.2f} | {:.2f} | {:.4f} |", alpha, omega, m.name,
+                                   levelsOf[k], m.predicted, counted, 1e6 * t.seconds / count));
+        fmt::print("  alpha {:g} omega {:g} {:<20} L = {:2d}: model {:.2f}, counted {:.2f}, {:.4f} us/particle\n", alpha,
+                   omega, m.name, levelsOf[k], m.predicted, counted, 1e6 * t.seconds / count);
+      }
+      const std::string pick = best.chosen.linkedCell
+                                   ? std::string("linked cell")
+                                   : fmt::format("{} (L = {})", best.chosen.config.mode == broadphase::CrossLevel::TopDown
+                                                                    ? "top-down"
+                                                                    : "bottom-up",
+                                                 best.chosen.levels);
+      for (std::size_t k = 0; k < rows.size(); ++k) {
+        markdown += rows[k];
+        if (k == 0) {
+          markdown += fmt::format(" {:.2f} / {:.2f} | {} | {} |\n", bu.predicted / td.predicted, buTime / tdTime, pick,
+                                  fastest);
+        } else {
+          markdown += " | | |\n";
+        }
+      }
+    }
+  }
+  csv.close();
+  // Predicted work against measured time: one point per (distribution, method); a line through the origin
+  // would mean time proportional to the model's work.
+  std::ofstream gp(dir / "model.gp");
+  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "model.png").string()
+     << "'\nset termoption noenhanced\nset logscale xy\nset xlabel 'model T/N (pair tests + K cell accesses)'\n"
+     << "set ylabel 'measured us per particle'\nset key top left\n"
+     << "set title 'Cost model vs measurement, power laws (seed 000 2.2.5)'\nplot ";
+  const char* methodsList[] = {"top-down optimal", "bottom-up optimal", "top-down constant m", "linked cell"};
+  for (int k = 0; k < 4; ++k) {
+    gp << (k ? ", " : "") << "'" << (dir / "model.csv").string() << "' using (strcol(6) eq '" << methodsList[k]
+       << "' ? $8 : 1/0):14 with points pt " << 5 + 2 * k << " ps 1.5 title '" << methodsList[k] << "'";
+  }
+  gp << "\n";
+  gp.close();
+  markdown += runGnuplot(dir / "model.gp") ? "\n![model](model.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  return 0;
+}
+
 }  // namespace
 
 Runner addBench(CLI::App& app) {
   auto opt = std::make_shared<BenchOptions>();
   CLI::App* cmd = app.add_subcommand("bench", "run a named benchmark suite and write a report (CSV, PNG, Markdown)");
-  cmd->add_option("suite", opt->suite, "quick, levels, backends, optimiser, scaling, paper")
+  cmd->add_option("suite", opt->suite, "quick, levels, backends, optimiser, scaling, trel, model, paper, full")
       ->required()
-      ->check(CLI::IsMember({"quick", "levels", "backends", "optimiser", "scaling", "paper"}));
+      ->check(CLI::IsMember({"quick", "levels", "backends", "optimiser", "scaling", "trel", "model", "paper", "full"}));
   cmd->add_option("--out", opt->out, "report directory")->capture_default_str();
   cmd->add_option("--repeat", opt->repeat, "timed repetitions per case (median and spread reported)")
       ->capture_default_str();
   cmd->add_option("-n,--count", opt->count, "particles per scene (0: the suite's default)")->capture_default_str();
-  cmd->add_option("--phi", opt->packing, "packing fraction for the levels suite (0: 0.62)")->capture_default_str();
+  cmd->add_option("--counts", opt->counts, "N values of the trel suite, e.g. 10000,100000")->delimiter(',');
+  cmd->add_option("--phi", opt->packing, "packing fraction (0: the suite's default)")->capture_default_str();
   cmd->add_option("--max-levels", opt->maxLevels, "largest L in the levels suite")->capture_default_str();
+  cmd->add_option("--steps", opt->steps, "DEM steps per timed round in the trel suite (0: default)")
+      ->capture_default_str();
+  cmd->add_option("-i,--input", opt->inputs,
+                  "benchmark these particle files (text or HDF5) as they are, instead of generated scenes "
+                  "(levels and backends suites)");
+  cmd->add_option("--dense", opt->dense,
+                  "when random sequential addition cannot reach the packing: edmd (event-driven compression to it) "
+                  "or rsa (use the densest RSA state)")
+      ->check(CLI::IsMember({"edmd", "rsa"}))
+      ->capture_default_str();
+  cmd->add_option("--cache", opt->cacheDir, "directory for compressed dense states (default: <out>/states)");
   return [opt, cmd]() {
     if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
     std::filesystem::create_directories(opt->out);
@@ -585,20 +1004,21 @@ Runner addBench(CLI::App& app) {
         }());
     Stopwatch clock;
     int status = 0;
-    if (opt->suite == "quick") {
-      status = runBackends(*opt, markdown, true);
-    } else if (opt->suite == "levels") {
-      status = runLevels(*opt, markdown);
-    } else if (opt->suite == "backends") {
-      status = runBackends(*opt, markdown, false);
-    } else if (opt->suite == "optimiser") {
-      status = runOptimiser(*opt, markdown);
-    } else if (opt->suite == "scaling") {
-      status = runScaling(*opt, markdown);
-    } else {
-      status = runLevels(*opt, markdown);
-      status |= runBackends(*opt, markdown, false);
+    const std::string& suite = opt->suite;
+    if (!opt->inputs.empty() && suite != "levels" && suite != "backends") {
+      throw ConfigError(fmt::format("--input works with the levels and backends suites, not {}", suite));
     }
+    if (suite == "quick") {
+      status = runBackends(*opt, markdown, true);
+      status |= runRelativeTime(*opt, markdown, true);
+      status |= runModel(*opt, markdown, true);
+    }
+    if (suite == "levels" || suite == "paper" || suite == "full") status |= runLevels(*opt, markdown);
+    if (suite == "trel" || suite == "paper" || suite == "full") status |= runRelativeTime(*opt, markdown, false);
+    if (suite == "model" || suite == "paper" || suite == "full") status |= runModel(*opt, markdown, false);
+    if (suite == "backends" || suite == "full") status |= runBackends(*opt, markdown, false);
+    if (suite == "optimiser" || suite == "full") status |= runOptimiser(*opt, markdown);
+    if (suite == "scaling" || suite == "full") status |= runScaling(*opt, markdown);
     markdown += fmt::format("Total run time: {:.1f} s\n", clock.seconds());
     std::ofstream(std::filesystem::path(opt->out) / "README.md") << markdown;
     fmt::print("report written to {}/README.md ({:.1f} s)\n", opt->out, clock.seconds());
