@@ -1,7 +1,10 @@
 // polydem analyze: contact network, rattlers, isostaticity, cumulative coordination Z(tau) and the pair
-// correlation g(x) of a hard-sphere packing (e.g. one written by `polydem jam`).
+// correlation g(x) of a hard-sphere packing (e.g. one written by `polydem jam`); structure of any
+// configuration (gas, liquid, crystal, packing): bond-orientational order and crystallinity (--order),
+// channel sizes (--channels-csv), S(k) and chi(k) (--sk-csv), rattlers by speed (--velocity-rattlers).
 #include <fmt/format.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -13,6 +16,11 @@
 #include "edmd/compression.hpp"
 #include "edmd/contact_network.hpp"
 #include "edmd/jamming_test.hpp"
+#include "structure/bond_order.hpp"
+#include "structure/channel_size.hpp"
+#include "structure/delaunay_neighbours.hpp"
+#include "structure/rattlers.hpp"
+#include "structure/structure_factor.hpp"
 
 namespace polydem::app {
 
@@ -34,6 +42,13 @@ struct AnalyzeOptions {
   double displacementLimit = 1e-3;
   int loads = 2;
   bool skipIdeal = false;
+  bool structureOnly = false;
+  bool order = false;
+  std::string channelsCsv;
+  std::string skCsv;
+  double skMax = 20.0;
+  double skMaxVectors = 2e6;
+  std::vector<std::string> velocityThreshold;  // empty (or "") with the flag alone: 1e-4
 };
 
 void writeCsv(const std::string& path, const std::string& header, const std::vector<double>& a,
@@ -43,6 +58,102 @@ void writeCsv(const std::string& path, const std::string& header, const std::vec
   fmt::print(f, "{}\n", header);
   for (std::size_t k = 0; k < a.size(); ++k) fmt::print(f, "{:.10g},{:.10g}\n", a[k], b[k]);
   std::fclose(f);
+}
+
+/// --order, --channels-csv, --sk-csv, --velocity-rattlers: structure of any configuration. `net` (the
+/// contact network, if computed) lets the speed rattlers be compared with the contact-count ones.
+void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, bool velocityRattlers,
+                      const edmd::ContactNetwork* net) {
+  const SphereView spheres{data.position, data.radius};
+  const Index n = data.count();
+  if (velocityRattlers) {
+    double threshold = 1e-4;
+    if (!opt.velocityThreshold.empty() && !opt.velocityThreshold.front().empty()) {
+      const std::string& text = opt.velocityThreshold.front();
+      std::size_t used = 0;
+      try {
+        threshold = std::stod(text, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != text.size()) {
+        throw ConfigError(fmt::format("--velocity-rattlers: '{}' is not a number (expected e.g. 1e-4)", text));
+      }
+    }
+    if (!data.velocity) {
+      throw ConfigError(fmt::format(
+          "--velocity-rattlers: {} has no velocities; write it with `polydem jam --velocities`", opt.input));
+    }
+    const structure::VelocityRattlers r = structure::velocityRattlers(*data.velocity, data.radius, data.box, threshold);
+    fmt::print(
+        "rattlers (|v|/v_rms <= {:.1e}) {} ({:.2f}%), volume fraction nu_r {:.5f} ({:.2f}% of the solid "
+        "volume)\n",
+        threshold, r.count, 100.0 * r.numberFraction, r.volumeFraction, 100.0 * r.volumeShare);
+    if (net) {
+      Index both = 0, geometric = 0;
+      for (Index i = 0; i < n; ++i) {
+        geometric += net->rattler[static_cast<std::size_t>(i)] != 0;
+        both += net->rattler[static_cast<std::size_t>(i)] && r.rattler[static_cast<std::size_t>(i)];
+      }
+      fmt::print("  vs contact-count rattlers: {} of {} agree ({} by speed only, {} by contacts only)\n", both,
+                 geometric, r.count - both, geometric - both);
+    }
+  }
+  if (opt.order || !opt.channelsCsv.empty()) {
+    const auto start = std::chrono::steady_clock::now();
+    const structure::NeighbourList nb = structure::delaunayNeighbours(spheres, data.box);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    fmt::print("Delaunay neighbours     {:.3f} per sphere (image shell {:.4g}, {} triangulation(s), {:.2f} s){}\n",
+               nb.meanDegree(), nb.imageShell, nb.attempts, seconds,
+               nb.unverifiedCells ? fmt::format(", {} cells unverified", nb.unverifiedCells) : std::string());
+    if (nb.hidden) fmt::print("  {} spheres hidden by overlapping larger ones (no neighbours)\n", nb.hidden);
+    if (opt.order) {
+      const structure::BondOrder order = structure::bondOrder(nb);
+      fmt::print("bond order (l = 6)      p_c = {:.4f} ({} solid-like of {}), mean q6 = {:.4f}, Q6 = {:.4f}\n",
+                 order.crystallineFraction, order.solidCount, n, order.meanQ, order.globalQ);
+    }
+    if (!opt.channelsCsv.empty()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      const structure::ChannelHistogram h = structure::channelSizes(spheres, nb);
+      const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      fmt::print(
+          "channels R_j/r_i        {} acute of {} triangles, {} with a gap circle; mean {:.4f}, sd {:.4f} "
+          "({:.2f} s)\n",
+          h.acute, h.triangles, h.channels, h.mean, h.stddev, sec);
+      if (h.overflow) fmt::print("  {} channels with R_j/r_i >= 1e4 are not in the histogram\n", h.overflow);
+      std::FILE* f = std::fopen(opt.channelsCsv.c_str(), "w");
+      if (!f) throw InputError(fmt::format("{}: cannot open for writing", opt.channelsCsv));
+      fmt::print(f, "x_low,x_mid,f,count\n");
+      for (std::size_t k = 0; k < h.counts.size(); ++k) {
+        fmt::print(f, "{:.4f},{:.4f},{:.8g},{}\n", k * h.binWidth, (k + 0.5) * h.binWidth, h.density[k], h.counts[k]);
+      }
+      std::fclose(f);
+      fmt::print("wrote {}\n", opt.channelsCsv);
+    }
+  }
+  if (!opt.skCsv.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const structure::StructureFactor sk = structure::structureFactor(
+        spheres, data.box, {.kMax = opt.skMax, .maxVectors = static_cast<std::int64_t>(opt.skMaxVectors)});
+    const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::size_t peak = 0;
+    for (std::size_t s = 1; s < sk.s.size(); ++s) {
+      if (sk.s[s] > sk.s[peak]) peak = s;
+    }
+    fmt::print(
+        "S(k)                    {} wave vectors (stride {}) in {} shells up to K = {} ({:.2f} s); S(K_min = "
+        "{:.3f}) = {:.4g}, peak S = {:.4g} at K = {:.3f}\n",
+        sk.totalVectors, sk.stride, sk.k.size(), opt.skMax, sec, sk.k.empty() ? 0.0 : sk.k[0],
+        sk.s.empty() ? 0.0 : sk.s[0], sk.s.empty() ? 0.0 : sk.s[peak], sk.k.empty() ? 0.0 : sk.k[peak]);
+    std::FILE* f = std::fopen(opt.skCsv.c_str(), "w");
+    if (!f) throw InputError(fmt::format("{}: cannot open for writing", opt.skCsv));
+    fmt::print(f, "K,S,chi,vectors\n");
+    for (std::size_t s = 0; s < sk.k.size(); ++s) {
+      fmt::print(f, "{:.6f},{:.8g},{:.8g},{}\n", sk.k[s], sk.s[s], sk.chi[s], sk.vectors[s]);
+    }
+    std::fclose(f);
+    fmt::print("wrote {}\n", opt.skCsv);
+  }
 }
 
 }  // namespace
@@ -77,11 +188,39 @@ Runner addAnalyze(CLI::App& app) {
   cmd->add_option("--loads", opt->loads, "--certify: random loads (each also applied reversed)")->capture_default_str();
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd->add_option("--motion-csv", opt->motionCsv, "write the unjamming motion (i,dx,dy,dz) if one is found");
+  cmd->add_flag("--structure-only", opt->structureOnly,
+                "skip the contact network and jamming statistics (gases, liquids, crystals)");
+  cmd->add_flag("--order", opt->order,
+                "bond-orientational order over weighted Delaunay neighbours: q6, Q6, crystalline fraction p_c "
+                "(d6 > 0.65, >= 6 connections)");
+  cmd->add_option("--channels-csv", opt->channelsCsv,
+                  "write the channel-size histogram f(R_j / r_i), bin 0.01 (x_low,x_mid,f,count)");
+  cmd->add_option("--sk-csv", opt->skCsv,
+                  "write shell-averaged S(k) and spectral density chi(k) (K,S,chi,vectors), "
+                  "K = k D, D = 2 <r>; periodic boxes only");
+  cmd->add_option("--sk-kmax", opt->skMax, "largest K = k D of --sk-csv")->capture_default_str();
+  cmd->add_option("--sk-max-vectors", opt->skMaxVectors,
+                  "--sk-csv: above this many wave vectors use every s-th per axis (coarser shells; 0 = all)")
+      ->capture_default_str();
+  CLI::Option* velocityOption =
+      cmd->add_option("--velocity-rattlers", opt->velocityThreshold,
+                      "rattlers by speed: |v| / v_rms <= threshold (default 1e-4; needs velocities, `polydem jam "
+                      "--velocities`); give the value with '=' or after the input file")
+          ->expected(0, 1);
 
-  return [opt]() {
+  return [opt, velocityOption]() {
     const io::ParticleData data = io::readParticles(opt->input);
     const Index n = data.count();
     const SphereView spheres{data.position, data.radius};
+    if (opt->structureOnly) {
+      double volume = 0.0;
+      for (Index i = 0; i < n; ++i) volume += 4.0 / 3.0 * kPi * std::pow(data.radius[i], 3);
+      fmt::print("{}: {} spheres in a box {}, size ratio {:.4g}\n", opt->input, n, data.box.describe(),
+                 n ? data.radius.maxCoeff() / data.radius.minCoeff() : 0.0);
+      fmt::print("packing fraction        {:.8f}\n", volume / data.box.volume());
+      analyzeStructure(*opt, data, velocityOption->count() > 0, nullptr);
+      return 0;
+    }
     double pressure = opt->pressure;
     if (!(pressure > 0.0)) {
       const auto it = data.attributes.find("reduced_pressure");
@@ -138,6 +277,7 @@ Runner addAnalyze(CLI::App& app) {
       writeCsv(opt->correlationCsv, "x,g", g.x, g.g);
       fmt::print("wrote {}\n", opt->correlationCsv);
     }
+    analyzeStructure(*opt, data, velocityOption->count() > 0, &net);
     if (opt->certify) {
       edmd::ContactNetwork tested = net;
       if (opt->removeSphere >= 0) {
