@@ -15,5 +15,6 @@ Runner addRelax(CLI::App& app);
 Runner addJam(CLI::App& app);
 Runner addAnalyze(CLI::App& app);
 Runner addBench(CLI::App& app);
+Runner addPredict(CLI::App& app);
 
 }  // namespace polydem::app

@@ -7,6 +7,7 @@
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
+#include "apps/polydem/equivalent_option.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/io/particle_file.hpp"
@@ -25,6 +26,7 @@ struct GenerateOptions {
   std::string placement = "rsa";
   std::uint64_t seed = 1;
   std::string output;
+  std::string equivalent = "none";
 };
 }  // namespace
 
@@ -46,6 +48,7 @@ Runner addGenerate(CLI::App& app) {
       ->check(CLI::IsMember({"rsa", "random"}))
       ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "random seed")->capture_default_str();
+  addEquivalentOption(*cmd, opt->equivalent);
   cmd->add_option("-o,--output", opt->output, "output file: .h5/.hdf5 for HDF5 (+ .xmf sidecar), else plain text")
       ->required();
 
@@ -55,7 +58,10 @@ Runner addGenerate(CLI::App& app) {
     const auto dist = makeDistribution(opt->dist);
     Stopwatch clock;
     const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;
-    std::vector<double> radii = dist->sample(opt->count, sampling, opt->seed);
+    std::string equivalentDescription;
+    std::vector<double> radii = opt->equivalent == "none"
+                                    ? dist->sample(opt->count, sampling, opt->seed)
+                                    : equivalentRadii(*dist, opt->equivalent, opt->count, equivalentDescription);
     std::mt19937_64 rng(opt->seed ^ 0x9e3779b97f4a7c15ULL);
     std::shuffle(radii.begin(), radii.end(), rng);
 
@@ -77,6 +83,7 @@ Runner addGenerate(CLI::App& app) {
     for (Index i = 0; i < opt->count; ++i) data.id[i] = i;
     data.attributes["distribution"] = dist->describe();
     data.attributes["sampling"] = opt->sampling;
+    if (opt->equivalent != "none") data.attributes["equivalent_mixture"] = equivalentDescription;
     data.attributes["placement"] = opt->placement;
     data.attributes["seed"] = std::to_string(opt->seed);
     data.attributes["packing_fraction"] = fmt::format("{:.17g}", opt->packing);
@@ -84,6 +91,7 @@ Runner addGenerate(CLI::App& app) {
 
     const auto sample = sampleMoments(radii);
     fmt::print("generated {} particles: {}\n", opt->count, dist->describe());
+    if (opt->equivalent != "none") fmt::print("radii: {}\n", equivalentDescription);
     fmt::print("box: {}  packing fraction {:.6f}  placement {} ({} sampling)\n", config.box.describe(), opt->packing,
                opt->placement, opt->sampling);
     if (opt->count > 0) {

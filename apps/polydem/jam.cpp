@@ -4,10 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
+#include "apps/polydem/equivalent_option.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/io/particle_file.hpp"
@@ -41,6 +43,8 @@ struct JamOptions {
   std::string output;
   bool writeVelocities = false;
   double progressSeconds = 2.0;
+  std::string equivalent = "none";
+  std::string eosCsv;
 };
 
 /// Maxwell-Boltzmann velocities (component variance ~ 1/m), centre-of-mass velocity removed.
@@ -111,6 +115,9 @@ Runner addJam(CLI::App& app) {
   cmd->add_flag("--velocities", opt->writeVelocities, "store velocities in the output");
   cmd->add_option("--progress", opt->progressSeconds, "seconds between progress lines (0 = every block)")
       ->capture_default_str();
+  addEquivalentOption(*cmd, opt->equivalent);
+  cmd->add_option("--eos-csv", opt->eosCsv,
+                  "write one line per block: phi, reduced pressure Z, growth rate, collisions per particle, time");
 
   return [opt]() {
     finishDistributionSpec(opt->dist, opt->fractionKind);
@@ -120,6 +127,9 @@ Runner addJam(CLI::App& app) {
     copt.targetPackingFraction = opt->targetPhi;
     copt.maxCollisionsPerParticle = opt->maxCollisions;
     copt.blockCollisionsPerParticle = opt->block;
+    if (!opt->input.empty() && opt->equivalent != "none") {
+      throw ConfigError("--equivalent applies to the random start (--dist); it cannot be combined with --input");
+    }
 
     io::ParticleData start;
     std::string origin;
@@ -130,7 +140,10 @@ Runner addJam(CLI::App& app) {
       if (opt->count <= 0) throw ConfigError(fmt::format("--count must be > 0, got {}", opt->count));
       const auto dist = makeDistribution(opt->dist);
       const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;
-      std::vector<double> radii = dist->sample(opt->count, sampling, opt->seed);
+      std::string equivalentDescription;
+      std::vector<double> radii = opt->equivalent == "none"
+                                      ? dist->sample(opt->count, sampling, opt->seed)
+                                      : equivalentRadii(*dist, opt->equivalent, opt->count, equivalentDescription);
       std::mt19937_64 rng(opt->seed ^ 0x9e3779b97f4a7c15ULL);
       std::shuffle(radii.begin(), radii.end(), rng);
       PackingRequest request;
@@ -146,8 +159,10 @@ Runner addJam(CLI::App& app) {
       start.id.resize(static_cast<std::size_t>(opt->count));
       for (Index i = 0; i < opt->count; ++i) start.id[static_cast<std::size_t>(i)] = i;
       start.attributes["distribution"] = dist->describe();
+      if (opt->equivalent != "none") start.attributes["equivalent_mixture"] = equivalentDescription;
       origin = fmt::format("random sequential addition of {} spheres ({}) at phi {} in {:.2f} s", opt->count,
-                           dist->describe(), opt->initialPhi, rsaClock.seconds());
+                           opt->equivalent == "none" ? dist->describe() : equivalentDescription, opt->initialPhi,
+                           rsaClock.seconds());
     }
     const Index n = start.count();
     edmd::SystemOptions sopt;
@@ -163,6 +178,13 @@ Runner addJam(CLI::App& app) {
     fmt::print("schedule {} -> {}\n", edmd::formatSchedule(copt.schedule),
                opt->targetPhi > 0 ? fmt::format("phi {}", opt->targetPhi) : fmt::format("p {:g}", opt->targetPressure));
 
+    std::ofstream eosCsv;
+    if (!opt->eosCsv.empty()) {
+      eosCsv.open(opt->eosCsv);
+      if (!eosCsv) throw ConfigError(fmt::format("--eos-csv: cannot write '{}'", opt->eosCsv));
+      eosCsv << "# polydem jam EOS: one line per block; Z = reduced pressure PV/(N kT) of the block\n"
+             << "phi,Z,rate,collisions_per_particle,time,wall_seconds\n";
+    }
     Stopwatch clock;
     double lastPrint = -1e300;
     auto line = [&](const edmd::Progress& p) {
@@ -175,6 +197,10 @@ Runner addJam(CLI::App& app) {
     };
     edmd::Progress lastShown;
     const edmd::CompressionResult result = edmd::compress(system, copt, [&](const edmd::Progress& p) {
+      if (eosCsv.is_open()) {
+        eosCsv << fmt::format("{:.10f},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
+                              p.collisionsPerParticle, p.time, p.wallSeconds);
+      }
       if (p.wallSeconds - lastPrint >= opt->progressSeconds) {
         line(p);
         lastPrint = p.wallSeconds;

@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addJam);
   add(&polydem::app::addAnalyze);
   add(&polydem::app::addBench);
+  add(&polydem::app::addPredict);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
