@@ -1,5 +1,7 @@
 #include "edmd/event_queue.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -7,24 +9,41 @@
 namespace polydem::edmd {
 
 void EventQueue::reset(Index count) {
-  heap_.resize(static_cast<std::size_t>(count));
+  // Node k sits at byte 16 (k + 3) from a 64-byte boundary: children 4k+1..4k+4 start at 64 (k + 1).
+  storage_.assign(static_cast<std::size_t>(count) + 8, Node{0.0, 0});
+  const auto base = reinterpret_cast<std::uintptr_t>(storage_.data());
+  const std::uintptr_t aligned = (base + 63) & ~std::uintptr_t{63};
+  offset_ = (aligned + 48 - base) / sizeof(Node);  // < 7 nodes (malloc aligns to at least 16 bytes)
+  Node* const heap = nodes();
+  size_ = count;
   position_.resize(static_cast<std::size_t>(count));
   for (Index i = 0; i < count; ++i) {
-    heap_[static_cast<std::size_t>(i)] = {std::numeric_limits<double>::infinity(), i};
+    heap[i] = {std::numeric_limits<double>::infinity(), i};
     position_[static_cast<std::size_t>(i)] = i;
   }
 }
 
 void EventQueue::assign(const std::vector<double>& keys) {
   reset(static_cast<Index>(keys.size()));
-  for (std::size_t i = 0; i < keys.size(); ++i) heap_[i].key = keys[i];
-  for (std::size_t k = heap_.size() / kArity + 1; k-- > 0;) siftDown(k);
+  Node* const heap = nodes();
+  for (std::size_t i = 0; i < keys.size(); ++i) heap[i].key = keys[i];
+  for (std::size_t k = static_cast<std::size_t>(size_) / kArity + 1; k-- > 0;) siftDown(k);
+}
+
+Index EventQueue::runnerUp() const {
+  const Node* const heap = nodes();
+  const std::size_t n = static_cast<std::size_t>(size_);
+  if (n <= 1) return heap[0].particle;
+  std::size_t best = 1;
+  for (std::size_t c = 2; c <= std::min<std::size_t>(kArity, n - 1); ++c) best = heap[c].key < heap[best].key ? c : best;
+  return heap[best].particle;
 }
 
 void EventQueue::update(Index particle, double key) {
+  Node* const heap = nodes();
   const std::size_t k = static_cast<std::size_t>(position_[static_cast<std::size_t>(particle)]);
-  const double old = heap_[k].key;
-  heap_[k].key = key;
+  const double old = heap[k].key;
+  heap[k].key = key;
   if (key < old) {
     siftUp(k);
   } else if (key > old) {
@@ -36,48 +55,51 @@ void EventQueue::update(Index particle, double key) {
 // (16-byte nodes), so a sift touches fewer lines; the smallest child is picked without branches (which
 // child wins is unpredictable, and a mispredicted branch per level was a tenth of the event loop).
 void EventQueue::siftUp(std::size_t k) {
-  const Node node = heap_[k];
+  Node* const heap = nodes();
+  const Node node = heap[k];
   while (k > 0) {
     const std::size_t parent = (k - 1) / kArity;
-    if (!(node.key < heap_[parent].key)) break;
-    heap_[k] = heap_[parent];
-    position_[static_cast<std::size_t>(heap_[k].particle)] = static_cast<Index>(k);
+    if (!(node.key < heap[parent].key)) break;
+    heap[k] = heap[parent];
+    position_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
     k = parent;
   }
-  heap_[k] = node;
+  heap[k] = node;
   position_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
 }
 
 void EventQueue::siftDown(std::size_t k) {
-  const Node node = heap_[k];
-  const std::size_t n = heap_.size();
+  Node* const heap = nodes();
+  const Node node = heap[k];
+  const std::size_t n = static_cast<std::size_t>(size_);
   for (;;) {
     const std::size_t first = kArity * k + 1;
     if (first >= n) break;
     std::size_t best = first;
     if (first + kArity <= n) {
-      const std::size_t a = first + static_cast<std::size_t>(heap_[first + 1].key < heap_[first].key);
-      const std::size_t b = first + 2 + static_cast<std::size_t>(heap_[first + 3].key < heap_[first + 2].key);
-      best = heap_[b].key < heap_[a].key ? b : a;
+      const std::size_t a = first + static_cast<std::size_t>(heap[first + 1].key < heap[first].key);
+      const std::size_t b = first + 2 + static_cast<std::size_t>(heap[first + 3].key < heap[first + 2].key);
+      best = heap[b].key < heap[a].key ? b : a;
     } else {
-      for (std::size_t c = first + 1; c < n; ++c) best = heap_[c].key < heap_[best].key ? c : best;
+      for (std::size_t c = first + 1; c < n; ++c) best = heap[c].key < heap[best].key ? c : best;
     }
-    if (!(heap_[best].key < node.key)) break;
-    heap_[k] = heap_[best];
-    position_[static_cast<std::size_t>(heap_[k].particle)] = static_cast<Index>(k);
+    if (!(heap[best].key < node.key)) break;
+    heap[k] = heap[best];
+    position_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
     k = best;
   }
-  heap_[k] = node;
+  heap[k] = node;
   position_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
 }
 
 void EventQueue::validate() const {
-  for (std::size_t k = 0; k < heap_.size(); ++k) {
-    if (position_[static_cast<std::size_t>(heap_[k].particle)] != static_cast<Index>(k)) {
-      throw std::logic_error("event queue: position index of particle " + std::to_string(heap_[k].particle) +
+  const Node* const heap = nodes();
+  for (std::size_t k = 0; k < static_cast<std::size_t>(size_); ++k) {
+    if (position_[static_cast<std::size_t>(heap[k].particle)] != static_cast<Index>(k)) {
+      throw std::logic_error("event queue: position index of particle " + std::to_string(heap[k].particle) +
                              " is stale");
     }
-    if (k > 0 && heap_[k].key < heap_[(k - 1) / kArity].key) {
+    if (k > 0 && heap[k].key < heap[(k - 1) / kArity].key) {
       throw std::logic_error("event queue: heap order violated at node " + std::to_string(k));
     }
   }

@@ -7,7 +7,7 @@
 // * Every particle lives at its own time: its state (x, v, t_i, radius at the last synchronisation) is
 //   advanced only when it takes part in an event (:2400-2404). The global clock is reset to 0 at every
 //   synchronisation (Algorithm 3, :3114-3125), which keeps |t| small near jamming.
-// * One predicted event per particle in an indexed binary heap (:2960-2963): binary collision, check
+// * One predicted event per particle in an indexed 4-ary heap (:2960-2963): binary collision, check
 //   after a partner's collision, plain check (prediction invalidated by a third party), exit from the
 //   bounding neighbourhood, hard-wall collision. Predictions accept a collision with j only before both
 //   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (:3173-3180); a claimed particle's
@@ -17,13 +17,19 @@
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
-//   list through the shared broad phase (update() then findNeighbours(), STYLE §4), so the work per
-//   event does not depend on the size ratio. The broad phase indexes the neighbourhood spheres.
+//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp; the shared broad phase's
+//   update() + findNeighbours() with SystemOptions::ownExitIndex = false, same lists), so the work per
+//   event does not depend on the size ratio. The broad phase builds the lists at global rebuilds.
 //   rho_i is fixed between global rebuilds ("epochs") because broadphase update() may not change radii;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
-//   skin_i = (mu - 1) min(O_i, kappa O_min): proportional for small spheres, capped for large ones, whose
-//   list would otherwise grow as (O_i / O_min)^3 instead of (O_i / O_min)^2.
+//   skin_i = (mu - 1) max(min(O_i, kappa O_min), f O_min (O_min / O_i)^(3/2)): proportional for small
+//   spheres, capped for large ones, whose list would otherwise grow as (O_i / O_min)^3 instead of
+//   (O_i / O_min)^2, and a floor f (adapted at rebuilds) that covers the flight of fast small spheres and
+//   falls with their thermal speed ~ O^(-3/2).
+// * The event loop is bound by loads (a 10^4-particle system exceeds L2): the likely next particle's
+//   event, state and neighbourhood are prefetched one event ahead, and a collision partner's data
+//   before the collision arithmetic (process()).
 // * Growth: O_i(t) = O_i(0) (1 + g t) with one relative rate g (1/s), so dO_i/dt is proportional to O_i
 //   and the size distribution keeps its shape (seed 000 eq. 3.22; digest §2.3).
 // * Collisions: kinematics.hpp (robust quadratic, elastic rule with the growth term).
@@ -46,6 +52,7 @@
 #include "core/box.hpp"
 #include "core/types.hpp"
 #include "edmd/event_queue.hpp"
+#include "edmd/hood_grid.hpp"
 
 namespace polydem::edmd {
 
@@ -57,13 +64,30 @@ struct SystemOptions {
   double neighbourhoodScale = 1.4;
   /// kappa: cap of the skin in units of the smallest radius (wide size distributions).
   double skinCap = 4.0;
-  /// Floor of the skin in units of the smallest radius: skin_i = (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min),
-  /// f = skinFloor initially.
+  /// Floor of the skin in units of the smallest radius: skin_i = (mu - 1) max(min(O_i, cap O_min),
+  /// f O_min (O_min / O_i)^(3/2)), f = skinFloor initially. The floor covers the flight of fast small
+  /// spheres; their thermal speed, and with it the room they need, falls as m^(-1/2) ~ O^(-3/2), so large
+  /// spheres keep the capped skin and their lists do not grow with f. Equal to the rule below for
+  /// monodisperse systems and, with skinCap >= 1, whenever f = 1.
   double skinFloor = 1.0;
-  /// Adapt f at global rebuilds from the ratio of neighbourhood exits to collisions (seed :3944-3953):
-  /// x1.3 above 0.8 exits per collision, /1.15 below 0.2 (never below skinFloor). Small, fast spheres of
-  /// wide size distributions then get skins of a few smallest radii; monodisperse systems are unaffected.
+  /// false: the earlier rule skin_i = (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min), which gives every
+  /// sphere at least f O_min (kept for comparisons; benchmarks/edmd_bench.cpp).
+  bool speedScaledFloor = true;
+  /// Adapt f at global rebuilds from the fraction of events that are neighbourhood exits (seed
+  /// :3944-3953): x1.3 when exits cost too much, /1.15 when they are cheap (never below skinFloor). Small,
+  /// fast spheres of wide size distributions then get skins of a few smallest radii.
   bool adaptiveSkin = true;
+  /// How "too much" is judged. true: balance the work, W = exitWork x exits / (pair predictions), grow
+  /// above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as much as some tens
+  /// of pair predictions, and a skin that minimises exit work ~ 1/f plus list work ~ f^3 spends about as
+  /// much on both. false: the earlier rule, grow above 0.8 exits per collision, shrink below 0.2, which at
+  /// low density drives the skins of uniform-volume omega = 50 mixtures to lists of ~300 neighbours.
+  /// Applies to size ratios >= 2; narrower distributions always use the earlier rule.
+  bool balanceSkinByWork = true;
+  /// Cost of one exit in pair predictions for balanceSkinByWork. Scanned at phi 0.5 (benchmarks/
+  /// edmd_bench.cpp, docs/edmd.md): uniform volume omega = 50 is flat within noise over 30-100 and
+  /// slower at 10 and 300; omega = 10 is 1.5x slower at 30 than at 60-100.
+  double exitWork = 100.0;
   /// Floor of the surface separation speed after a collision (m/s), against zero-delay re-collisions of
   /// grazing pairs whose approach speed is below round-off. Far below any physical speed.
   double minSeparationSpeed = 1e-10;
@@ -73,6 +97,10 @@ struct SystemOptions {
   /// watchdogFactor x (mean collisions per particle requested) + watchdogSlack collisions.
   double watchdogFactor = 1000.0;
   std::int64_t watchdogSlack = 100000;
+  /// Answer neighbourhood exits from EDMD's own multi-level grid of neighbourhoods (edmd/hood_grid.hpp,
+  /// O(1) moves) instead of the broad phase's update() + findNeighbours(); the lists are the same (one
+  /// pair predicate), only faster. The broad phase still builds the lists at global rebuilds.
+  bool ownExitIndex = true;
   /// Renumber the particles internally along a Morton curve at every global rebuild and, at a
   /// synchronisation, once this many collisions per particle have passed since the last renumbering
   /// (0 = only at rebuilds). Neighbours then sit close in memory: the prediction loop is bound by loads
@@ -105,6 +133,12 @@ struct EventCounts {
   std::int64_t relocatedLists = 0;  ///< neighbour lists moved to a larger slot (out of room)
   std::int64_t missed = 0;          ///< predicted collisions found separating when processed (grazing)
   std::int64_t events() const { return collisions + wallCollisions + checks + exits; }
+};
+
+/// One processed binary collision, in the caller's particle numbering (i < j).
+struct CollisionRecord {
+  Index i = -1, j = -1;
+  double time = 0.0;  ///< HardSphereSystem::time() of the collision (s)
 };
 
 /// Accumulators of the collisional virial since resetPressureWindow().
@@ -180,6 +214,9 @@ class HardSphereSystem {
   void resetPressureWindow();
 
   const EventCounts& counts() const { return total_; }
+  /// The last binary collision processed (i = j = -1 before the first); with step(), the collision
+  /// sequence of a run (tests compare it against a brute-force reference).
+  const CollisionRecord& lastCollision() const { return lastCollision_; }
   /// Largest relative overlap (s - |r|) / s met at any collision so far (0 if none).
   double maxOverlapSeen() const { return maxOverlap_; }
   /// Description of the broad phase used for the neighbourhoods.
@@ -244,8 +281,12 @@ class HardSphereSystem {
   std::vector<Index> external_;  // internal slot -> caller's index
   std::int64_t collisionsAtSort_ = 0;
   double skinFloor_ = 1.0;  // current f
-  std::int64_t collisionsAtRebuild_ = 0, exitsAtRebuild_ = 0;
+  double sizeRatio_ = 1.0;  // largest / smallest radius (constant: all radii grow in proportion)
+  std::int64_t collisionsAtRebuild_ = 0, exitsAtRebuild_ = 0, pairsAtRebuild_ = 0;
+  std::int64_t pairWork_ = 0;  // pair predictions made (neighbour-list entries scanned), cumulative
   double exitRatioSinceRebuild() const;
+  /// +1: the skins are too thin (exits cost too much), -1: too thick, 0: keep (SystemOptions::adaptiveSkin).
+  int skinTrend() const;
   double periodicLength() const;  // shortest periodic edge (inf if none)
   Eigen::VectorXd mass_, inverseMass_;
   std::vector<Event> event_;
@@ -264,6 +305,11 @@ class HardSphereSystem {
     double skin;    // room rho - O at the last global rebuild
     Index begin, size, capacity;
   };
+  void prefetchList(Index i) const {  // the first two cache lines of i's list
+    const Index* first = nbData_.data() + hood_[static_cast<std::size_t>(i)].begin;
+    __builtin_prefetch(first);
+    __builtin_prefetch(first + 16);
+  }
   std::span<const Index> neighboursOf(Index i) const {
     const Hood& h = hood_[static_cast<std::size_t>(i)];
     return {nbData_.data() + h.begin, static_cast<std::size_t>(h.size)};
@@ -277,6 +323,7 @@ class HardSphereSystem {
   Eigen::VectorXd nbRadius_;
   std::vector<Index> added_, removed_;
   std::unique_ptr<broadphase::BroadPhase> broad_;
+  HoodGrid hoodGrid_;  // used when options_.ownExitIndex
   std::vector<Index> scratch_;
   std::vector<broadphase::Pair> pairScratch_;
   bool rebuildPending_ = false;
@@ -288,6 +335,7 @@ class HardSphereSystem {
   double maxOverlap_ = 0.0;
 
   EventCounts total_;
+  CollisionRecord lastCollision_;
   // Watchdog.
   std::vector<std::int64_t> collisionsInRun_;
   std::int64_t watchdogLimit_ = std::numeric_limits<std::int64_t>::max();

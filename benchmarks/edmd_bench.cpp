@@ -1,0 +1,205 @@
+// Event-driven hard spheres at fixed density: collisions per CPU second and the event mix (events,
+// neighbourhood exits and checks per collision, neighbour-list length) of the issue-6 targets,
+// monodisperse N = 10,000 and uniform volume omega = 50 (N = 20,000) at packing fraction 0.5.
+// The start is made as `polydem jam` makes it (systematic radii, shuffled, random sequential addition at
+// phi 0.3, Maxwell-Boltzmann velocities, compression at rate 1e-2 to phi 0.5), once per case and cached;
+// the timed loop runs `perIteration` collisions per particle with a synchronisation after each block, as
+// edmd::runAtFixedDensity does. Uniform-volume cases first run 10 collisions per particle untimed (the
+// skin adaptation settles). Counters: coll/s per CPU second, events/exits/checks per collision, nb (mean
+// list length), f (skin floor), p (reduced pressure: two codes that claim the same trajectory must print
+// the same p and counts). Results: docs/edmd.md.
+// Run (Release): build/benchmarks/polydem_edmd_bench --benchmark_filter='mono10k/|uv10_10k/|uv50_20k/'
+// (omega = 50 compresses for minutes; POLYDEM_EDMD_BENCH_START_2=FILE reads a start written by
+// `polydem jam -n 20000 --dist uniform-volume --omega 50 --schedule 1e-2 --target-phi 0.5 -o FILE
+// --velocities`).
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+#include <map>
+#include <random>
+#include <string>
+
+#include <benchmark/benchmark.h>
+
+#include "core/initial_configuration.hpp"
+#include "core/io/particle_file.hpp"
+#include "core/size_distribution.hpp"
+#include "edmd/compression.hpp"
+#include "edmd/hard_sphere_system.hpp"
+
+namespace {
+
+using namespace polydem;
+
+struct Case {
+  const char* distribution;
+  double omega;
+  Index count;
+};
+constexpr Case kCases[] = {{"mono", 1.0, 10000},
+                           {"uniform-volume", 10.0, 10000},
+                           {"uniform-volume", 50.0, 20000},
+                           {"uniform-volume", 50.0, 20000}};  // 3: at the RSA start, phi 0.3 (no compression)
+
+struct Start {
+  Box box;
+  Eigen::Matrix3Xd position, velocity;
+  Eigen::VectorXd radius;
+};
+
+Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
+  const Index n = static_cast<Index>(radius.size());
+  std::mt19937_64 rng(seed ^ 0x5851f42d4c957f2dULL);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Matrix3Xd v(3, n);
+  Eigen::VectorXd mass = radius.array().cube();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
+    momentum += mass[i] * v.col(i);
+  }
+  const Eigen::Vector3d drift = momentum / mass.sum();
+  for (Index i = 0; i < n; ++i) v.col(i) -= drift;
+  return v;
+}
+
+// `earlierRules`: compress with the skin rules from before speedScaledFloor / balanceSkinByWork, so that
+// the start (and with it the whole run) is bit for bit the one of the code before them.
+const Start& startAtHalf(int which, bool earlierRules) {
+  static std::map<int, Start> cache;
+  const int key = 2 * which + (earlierRules ? 1 : 0);
+  auto found = cache.find(key);
+  if (found != cache.end()) return found->second;
+  const Case& c = kCases[which];
+  // A start written by `polydem jam ... --target-phi 0.5 -o FILE --velocities` (uniform volume omega = 50
+  // takes minutes to compress): POLYDEM_EDMD_BENCH_START_<case>=FILE.
+  const std::string variable = "POLYDEM_EDMD_BENCH_START_" + std::to_string(which);
+  if (const char* file = std::getenv(variable.c_str())) {
+    io::ParticleData data = io::readParticles(file);
+    if (!data.velocity) throw std::runtime_error(std::string(file) + ": no velocities (write with --velocities)");
+    Start s{data.box, data.position, *data.velocity, data.radius};
+    return cache.emplace(key, std::move(s)).first->second;
+  }
+  DistributionSpec spec;
+  spec.kind = c.distribution;
+  spec.omega = c.omega;
+  const std::uint64_t seed = 1;
+  std::vector<double> radii = makeDistribution(spec)->sample(c.count, Sampling::Systematic, seed);
+  std::mt19937_64 rng(seed ^ 0x9e3779b97f4a7c15ULL);
+  std::shuffle(radii.begin(), radii.end(), rng);
+  PackingRequest request;
+  request.radii = radii;
+  request.packingFraction = 0.3;
+  request.seed = seed;
+  const Configuration rsa = randomSequentialAddition(request);
+  if (which == 3) {
+    Start s{rsa.box, rsa.position, randomVelocities(rsa.radius, seed), rsa.radius};
+    return cache.emplace(key, std::move(s)).first->second;
+  }
+  edmd::SystemOptions systemOptions;
+  systemOptions.speedScaledFloor = !earlierRules;
+  systemOptions.balanceSkinByWork = !earlierRules;
+  edmd::HardSphereSystem system(rsa.box, rsa.position, rsa.radius, randomVelocities(rsa.radius, seed), systemOptions);
+  edmd::CompressionOptions options;
+  options.schedule = {{1e-2, edmd::HardSphereSystem::kInfinity}};
+  options.targetPackingFraction = 0.5;
+  edmd::compress(system, options);
+  Start s{system.box(), system.positions(), system.velocities(), system.radii()};
+  return cache.emplace(key, std::move(s)).first->second;
+}
+
+void benchFixedDensity(benchmark::State& state) {
+  const int which = static_cast<int>(state.range(0));
+  const double perIteration = static_cast<double>(state.range(1));
+  const Start& start = startAtHalf(which, state.range(3) == 1);
+  edmd::SystemOptions options;
+  if (state.range(2) > 0) options.neighbourhoodScale = 1.0 + 0.01 * static_cast<double>(state.range(2));
+  options.speedScaledFloor = state.range(3) != 1;
+  options.balanceSkinByWork = state.range(3) != 1 && state.range(3) != 10;  // 10: only the speed-scaled floor
+  if (state.range(4) > 0) options.exitWork = static_cast<double>(state.range(4));
+  if (state.range(3) >= 2 && state.range(3) != 10) options.adaptiveSkin = false;
+  if (state.range(3) >= 3 && state.range(3) != 10) options.skinFloor = static_cast<double>(state.range(3)) / 2.0;
+  edmd::HardSphereSystem system(start.box, start.position, start.radius, start.velocity, options);
+  const Index n = system.count();
+  const std::int64_t block = static_cast<std::int64_t>(perIteration * n);
+  // Warm-up (not timed): the skin adaptation settles (a fresh system starts at the skin floor).
+  if (state.range(0) != 0) {
+    for (int k = 0; k < 5; ++k) {
+      system.run(2 * static_cast<std::int64_t>(n));
+      system.synchronise();
+    }
+  }
+  const edmd::EventCounts before = system.counts();
+  system.resetPressureWindow();
+  for (auto _ : state) {
+    system.run(block);
+    system.synchronise();
+  }
+  const edmd::EventCounts& after = system.counts();
+  const double collisions = static_cast<double>(after.collisions - before.collisions);
+  const double events = static_cast<double>(after.events() - before.events());
+  state.counters["coll/s"] = benchmark::Counter(collisions, benchmark::Counter::kIsRate);
+  state.counters["events/coll"] = events / collisions;
+  state.counters["exits/coll"] = static_cast<double>(after.exits - before.exits) / collisions;
+  state.counters["checks/coll"] = static_cast<double>(after.checks - before.checks) / collisions;
+  state.counters["nb"] = system.meanNeighbours();
+  state.counters["rebuilds"] = static_cast<double>(after.rebuilds - before.rebuilds);
+  state.counters["f"] = system.skinFloor();
+  state.counters["p"] = system.pressureWindow().reducedPressure();  // checks a fast wrong answer
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Args: case (0 mono 10k, 1 UV omega 10 10k, 2 UV omega 50 20k), collisions per particle per iteration,
+  // neighbourhood scale mu as 100 (mu - 1) (0: the default), skin rule: 0 the default, 1 the earlier one
+  // (SystemOptions::speedScaledFloor and balanceSkinByWork false), 2 = no skin adaptation, k >= 3: no
+  // adaptation with skin floor f = k / 2, 10 = speedScaledFloor only; SystemOptions::exitWork (0: the
+  // default).
+  benchmark::RegisterBenchmark("edmdFixedDensity/mono10k", benchFixedDensity)
+      ->Args({0, 20, 0, 0, 0})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/mono10k_mu", benchFixedDensity)
+      ->ArgsProduct({{0}, {20}, {30, 60}, {0}, {0}})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/mono10k_oldrules", benchFixedDensity)
+      ->Args({0, 20, 0, 1, 0})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k", benchFixedDensity)
+      ->ArgsProduct({{1}, {10}, {0}, {0, 1}, {0}})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k", benchFixedDensity)
+      ->ArgsProduct({{2}, {4}, {0}, {0, 1}, {0}})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_phi03", benchFixedDensity)
+      ->ArgsProduct({{3}, {2}, {0}, {0, 1, 2, 6, 12}, {0}})
+      ->Iterations(3)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_exitwork", benchFixedDensity)
+      ->ArgsProduct({{2}, {4}, {0}, {0}, {10, 30, 60, 300}})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k_floor_only", benchFixedDensity)
+      ->Args({1, 10, 0, 10, 0})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_floor_only", benchFixedDensity)
+      ->Args({2, 4, 0, 10, 0})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k_exitwork", benchFixedDensity)
+      ->ArgsProduct({{1}, {10}, {0}, {0}, {30, 60}})
+      ->Iterations(5)
+      ->Unit(benchmark::kMillisecond);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
