@@ -2,7 +2,9 @@
 # Equation of state and jamming densities of polydisperse hard spheres (seed 000 ch. 3), measured with
 # `polydem jam` (Lubachevsky-Stillinger, N = 4096 as in the seed) and compared with the fluid EOS
 # (eos/eos.hpp) and the seed's jamming-density fits; plus log-normal runs at the seed's own fast rate
-# (N = 16384, LN_* variables). Not part of CI: ~15 CPU minutes (2026-11-22), under nice.
+# (N = 16384, LN_* variables); plus the free-volume law near jamming (N = 1000 to Z = 1e12, NEARJ_* variables,
+# ~2 CPU minutes; NEARJ=0 skips it, NEARJ_FIXED=1 adds fixed-density points, ~5 CPU minutes more).
+# Not part of CI: ~17 CPU minutes (2026-11-22), under nice.
 #
 #   scripts/eos_report.sh [output-dir]        (default docs/eos; writes docs/eos.md next to it)
 #   POLYDEM=path/to/polydem N=4096 RUNS="fast|1e-3|1e4 slow|5e-4:1e4,2e-4|3e4" scripts/eos_report.sh
@@ -10,7 +12,8 @@
 # RUNS: space-separated tag|schedule|target-pressure triples; every case runs with every schedule.
 # REUSE=1 keeps the runs already in <dir> (log, csv, .time, .wall present) and only redoes tables and plots.
 # Writes <dir>/<case>-<tag>.csv (one line per block: phi, Z, rate, collisions per particle, time, wall s),
-# <case>-<tag>.log, eos_<case>.png, freevolume.png, summary.csv and <dir>.md (docs/eos.md).
+# <case>-<tag>.log, eos_<case>.png, freevolume.png, summary.csv, jam12-<case>.{csv,log,phij}, jam12-<case>-fv.csv
+# (per block: phi_J - nu, Z (1 - nu/phi_J)), [jam12-<case>-fixed.csv,] freevolume_jam.png and <dir>.md (docs/eos.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OUT=${1:-docs/eos}
@@ -162,6 +165,106 @@ done
 } > "$OUT/freevolume.gp"
 gnuplot "$OUT/freevolume.gp"
 
+# Near jamming (seed 000 Fig. 3.8, L4983-5042; digest §10 row 14, §5 row 25): the free-volume law
+# Z (1 - nu/phi_J) = 3 for phi_J - nu < 1e-8 and final Z >= 1e12 without overlap errors. N = 1000 compressions
+# to Z = 1e12 (~35 and ~75 CPU s, 2026-11-22); NEARJ=0 skips them. phi_J = final packing fraction (from the
+# written packing, all digits) / (1 - 3/Z_final). The CSV's phi has 10 decimals (+-5e-11), so blocks with
+# phi_J - nu < 1e-9 are not resolved; NEARJ_FIXED=1 adds fixed-density points at NEARJ_GAPS: the same
+# compression (same seed, deterministic) stopped at nu = phi_J - gap (--target-phi), then 1000 collisions
+# per particle without growth (--run-collisions), nu read from the packing: one compression per gap
+# (~35-75 CPU s each). With REUSE=1 existing runs (and fixed points) are kept.
+NEARJ=${NEARJ:-1}
+NEARJ_N=${NEARJ_N:-1000}
+NEARJ_SCHEDULE=${NEARJ_SCHEDULE:-1e-2:1e2,1e-3:1e4,2e-4}
+NEARJ_TARGET=${NEARJ_TARGET:-1e12}
+NEARJ_FIXED=${NEARJ_FIXED:-0}
+NEARJ_GAPS=${NEARJ_GAPS:-1e-8 1e-10 1e-11}
+NEARJ_CASES=(
+  "mono|--dist mono"
+  "us2|--dist uniform-radius --omega 2"
+)
+# packing_phi FILE: packing fraction of a plain-text particle file (Kahan sum of r^3, 17 digits).
+packing_phi() {
+  awk '/^#/ {next} !h {lx=$2; ly=$3; lz=$4; h=1; next}
+       { y=$4*$4*$4-c; t=s+y; c=(t-s)-y; s=t }
+       END { printf "%.17g\n", s*4*atan2(0,-1)/3/(lx*ly*lz) }' "$1"
+}
+NEARJ_DONE=()
+if [ "$NEARJ" = 1 ]; then
+  TMPJ=$(mktemp -d)
+  trap 'rm -rf "$TMPJ"' EXIT
+  for c in "${NEARJ_CASES[@]}"; do
+    IFS='|' read -r name dist <<< "$c"
+    id="jam12-$name"
+    jamargs=(-n "$NEARJ_N" $dist --seed "$SEED" --schedule "$NEARJ_SCHEDULE")
+    echo "== $id: N = $NEARJ_N $dist --schedule $NEARJ_SCHEDULE --target-pressure $NEARJ_TARGET"
+    if [ "$REUSE" = 1 ] && [ -s "$OUT/$id.log" ] && [ -s "$OUT/$id.csv" ] && [ -s "$OUT/$id.phij" ]; then
+      echo "   (reusing the existing run)"
+    else
+      rm -f "$OUT/$id-fixed.csv"
+      /usr/bin/time -f "%U %S" -o "$OUT/$id.time" nice -n 10 $POLYDEM jam "${jamargs[@]}" \
+        --target-pressure "$NEARJ_TARGET" --progress 30 --eos-csv "$OUT/$id.csv" -o "$TMPJ/$id.txt" > "$OUT/$id.log"
+      # phi_final, Z_final, phi_J = phi_final / (1 - 3/Z_final)
+      phif=$(packing_phi "$TMPJ/$id.txt")
+      zf=$(awk -F, 'NR > 2 {z = $2} END {printf "%.8g", z}' "$OUT/$id.csv")
+      awk -v p="$phif" -v z="$zf" 'BEGIN {printf "%.17g %s %.17g\n", p, z, p/(1-3/z)}' > "$OUT/$id.phij"
+    fi
+    read -r phif zf pj < "$OUT/$id.phij"
+    if [ "$NEARJ_FIXED" = 1 ] && ! { [ "$REUSE" = 1 ] && [ -s "$OUT/$id-fixed.csv" ]; }; then
+      echo "gap_target,nu,gap,z_fixed_density,z_last_block,product" > "$OUT/$id-fixed.csv"
+      for gap in $NEARJ_GAPS; do
+        target=$(awk -v p="$pj" -v g="$gap" 'BEGIN {printf "%.17g", p - g}')
+        echo "   fixed density at phi_J - $gap = $target"
+        /usr/bin/time -f "%U %S" -o "$OUT/$id-fixed$gap.time" nice -n 10 $POLYDEM jam "${jamargs[@]}" \
+          --target-pressure 1e13 --target-phi "$target" --run-collisions 1000 --progress 60 \
+          -o "$TMPJ/$id-$gap.txt" > "$OUT/$id-fixed$gap.log"
+        nu=$(packing_phi "$TMPJ/$id-$gap.txt")
+        zfix=$(awk '/^fixed density:/ {print $8}' "$OUT/$id-fixed$gap.log")
+        zlast=$(awk '/^fixed density:/ {gsub(/[),]/, "", $12); print $12}' "$OUT/$id-fixed$gap.log")
+        awk -v g="$gap" -v nu="$nu" -v pj="$pj" -v z="$zfix" -v zl="$zlast" \
+          'BEGIN {printf "%s,%.17g,%.4g,%s,%s,%.4f\n", g, nu, pj - nu, z, zl, z * (1 - nu/pj)}' >> "$OUT/$id-fixed.csv"
+      done
+    fi
+    # Per block: gap = phi_J - nu and Z (1 - nu/phi_J), nu = the block's middle (previous phi + phi)/2 as above
+    # (Z is a block average; near jamming Z rises by ~3% per block, so the end of the block would give
+    # products ~1% lower); resolved = gap >= 1e-9 (20x the CSV rounding).
+    awk -F, -v pj="$pj" 'BEGIN {print "gap,product,resolved,z"}
+      NR > 2 { if (prev > 0) { nu = (prev + $1)/2; g = pj - nu;
+               if (g > 1e-13 && g < 1e-4) printf "%.6g,%.6f,%d,%s\n", g, $2*g/pj, (g >= 1e-9), $2 } prev = $1 }' \
+      "$OUT/$id.csv" > "$OUT/$id-fv.csv"
+    NEARJ_DONE+=("$name")
+  done
+  # Plot: blocks (resolved / not), fixed-density points, the law and +-1%.
+  {
+    echo "set terminal png size 900,600 noenhanced"
+    echo "set output '$OUT/freevolume_jam.png'"
+    echo "set datafile separator ','"
+    echo "set logscale x"
+    echo "set format x '1e%L'"
+    echo "set xrange [1e-12:1e-4]"
+    echo "set yrange [2.4:3.6]"
+    echo "set xlabel 'phi_J - nu (phi_J = final phi / (1 - 3/Z_final), Z_final = 1e12)'"
+    echo "set ylabel 'Z (1 - nu/phi_J)'"
+    echo "set key top right"
+    echo "set title 'free-volume law near jamming (seed 000 Fig. 3.8): polydem jam, N = $NEARJ_N, to Z = $NEARJ_TARGET'"
+    echo "set arrow from 1e-9, graph 0 to 1e-9, graph 1 nohead dt 3 lc rgb 'gray40'"
+    echo "set label 'left of the dotted line: block phi (10 decimals) does not resolve the gap' at 1.2e-12, 2.45 font ',9' tc rgb 'gray40'"
+    printf "plot 3 with lines lw 2 lc rgb 'black' title 'd = 3', 3.03 with lines dt 2 lc rgb 'gray50' title '+-1%%', 2.97 with lines dt 2 lc rgb 'gray50' notitle"
+    k=0
+    for name in "${NEARJ_DONE[@]}"; do
+      col=$([ $k = 0 ] && echo "'#1f77b4'" || echo "'#d62728'")
+      printf ", '%s' using 1:(\$3 > 0 ? \$2 : 1/0) every ::1 with points pt 7 ps 0.35 lc rgb %s title '%s, blocks (nu = block middle)'" "$OUT/jam12-$name-fv.csv" "$col" "$name"
+      printf ", '%s' using 1:(\$3 > 0 ? 1/0 : \$2) every ::1 with points pt 1 ps 0.3 lc rgb %s notitle" "$OUT/jam12-$name-fv.csv" "$col"
+      if [ -s "$OUT/jam12-$name-fixed.csv" ]; then
+        printf ", '%s' using 3:6 every ::1 with points pt 5 ps 1.6 lc rgb %s title '%s, fixed density (exact nu)'" "$OUT/jam12-$name-fixed.csv" "$col" "$name"
+      fi
+      k=$((k + 1))
+    done
+    echo
+  } > "$OUT/freevolume_jam.gp"
+  gnuplot "$OUT/freevolume_jam.gp"
+fi
+
 T1=$(date +%s)
 MD="$(dirname "$OUT")/$(basename "$OUT").md"
 REL=$(basename "$OUT")
@@ -170,8 +273,8 @@ NCPU=$(nproc)
 GIT=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 TOTAL_CPU=$(awk -F, 'NR>1 {s+=$14} END {printf "%.0f", s}' "$OUT/summary.csv")
 TOTAL_WALL=$(awk -F, 'NR>1 {s+=$13} END {printf "%.0f", s}' "$OUT/summary.csv")
-FIRST_LOG=$(ls -tr "$OUT"/*.log | head -1)
-LAST_LOG=$(ls -t "$OUT"/*.log | head -1)
+FIRST_LOG=$(ls -tr "$OUT"/*.log | grep -v '/jam12-' | head -1)
+LAST_LOG=$(ls -t "$OUT"/*.log | grep -v '/jam12-' | head -1)
 {
   echo "# Equation of state and jamming densities (seed 000 ch. 3)"
   echo
@@ -250,6 +353,91 @@ EOF
   done
   echo "![free volume]($REL/freevolume.png)"
   echo
+  if [ ${#NEARJ_DONE[@]} -gt 0 ]; then
+    cat <<EOF2
+## Near jamming: the free-volume law to Z = $NEARJ_TARGET (seed 000 Fig. 3.8)
+
+The seed (L4983-5042; digest §10 row 14, §5 row 25): near jamming Z (1 - nu/phi_J) = 3 within +-1% for
+phi_J - nu < 1e-8, final Z >= 10^13 without overlap errors (long double there). Runs (N = $NEARJ_N, seed $SEED):
+
+\`\`\`sh
+EOF2
+    for c in "${NEARJ_CASES[@]}"; do
+      IFS='|' read -r name dist <<< "$c"
+      echo "polydem jam -n $NEARJ_N $dist --seed $SEED --schedule $NEARJ_SCHEDULE --target-pressure $NEARJ_TARGET \\"
+      echo "    --eos-csv $OUT/jam12-$name.csv -o jam12-$name.txt"
+    done
+    echo "# fixed-density points (NEARJ_FIXED=1): the same run stopped at nu = phi_J - gap, then 1000 collisions"
+    echo "# per particle without growth; nu read from the written packing"
+    echo "polydem jam <same options> --target-pressure 1e13 --target-phi <phi_J - gap> --run-collisions 1000 -o fixed.txt"
+    echo "\`\`\`"
+    echo
+    cat <<EOF2
+phi_J = phi_final / (1 - 3/Z_final), phi_final summed from the radii of the written packing (17 digits);
+it differs from phi_final by 3 phi/Z_final ~ 2e-12. Per block, nu = (previous phi + phi)/2 as in the
+tables above (Z is a block average and rises by ~3% per block here; the end of the block gives products ~1%
+lower). The CSV writes phi with 10 decimals (+-5e-11), so only blocks with phi_J - nu >= 1e-9 are
+resolved; below that the plot shows them as crosses (meaningless: nu is rounded). The fixed-density
+points have exact nu and an equilibrium Z (growth off).
+
+| case | final Z | phi_J | rattlers | largest overlap (final; at collisions) | CPU s | Z (1 - nu/phi_J), blocks with phi_J - nu in [1e-5, 1e-4) | [1e-6, 1e-5) | [1e-7, 1e-6) | [1e-8, 1e-7) | [1e-9, 1e-8) |
+| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |
+EOF2
+    for name in "${NEARJ_DONE[@]}"; do
+      id="jam12-$name"
+      read -r phif zf pj < "$OUT/$id.phij"
+      rat=$(awk '/^rattlers/ {print $5, $6}' "$OUT/$id.log")
+      ov=$(awk '/^largest overlap/ {gsub(/\)/, "", $7); print $3 "; " $7}' "$OUT/$id.log")
+      cpu=$(awk '{printf "%.0f", $1 + $2}' "$OUT/$id.time")
+      dec=$(awk -F, 'NR > 1 && $3 == 1 { k = int(-log($1)/log(10)); s[k] += $2; ss[k] += $2*$2; n[k]++ }
+        END { for (k = 4; k <= 8; k++) { if (n[k]) { m = s[k]/n[k]; printf " %.3f +- %.3f (%d) |", m, sqrt((ss[k]/n[k] - m*m)/n[k]), n[k] } else printf " - |" } }' \
+        "$OUT/$id-fv.csv")
+      printf "| %s | %.4g | %.12f | %s | %s | %s |%s\n" "$name" "$zf" "$pj" "$rat" "$ov" "$cpu" "$dec"
+    done
+    echo
+    echo "(mean +- standard error (blocks).)"
+    echo
+    if ls "$OUT"/jam12-*-fixed.csv > /dev/null 2>&1; then
+      echo "Fixed density (equilibrium Z at exact nu; 'last block' = the growing run's Z over its last, partial block):"
+      echo
+      echo "| case | phi_J - nu | Z fixed density | Z last block | Z (1 - nu/phi_J) | minus 3 | CPU s |"
+      echo "| --- | --- | --- | --- | --- | --- | --- |"
+      for name in "${NEARJ_DONE[@]}"; do
+        [ -s "$OUT/jam12-$name-fixed.csv" ] || continue
+        tail -n +2 "$OUT/jam12-$name-fixed.csv" | while IFS=, read -r gt nu gap z zl prod; do
+          cpu=$(awk '{printf "%.0f", $1 + $2}' "$OUT/jam12-$name-fixed$gt.time")
+          awk -v n="$name" -v g="$gap" -v z="$z" -v zl="$zl" -v p="$prod" -v cpu="$cpu" \
+            'BEGIN { printf "| %s | %s | %s | %s | %.3f | %+.1f%% | %s |\n", n, g, z, zl, p, 100*(p/3 - 1), cpu }'
+        done
+      done
+      echo
+    fi
+    echo "Seed claims against these runs:"
+    echo
+    echo "| seed claim (digest) | ours | difference |"
+    echo "| --- | --- | --- |"
+    for name in "${NEARJ_DONE[@]}"; do
+      id="jam12-$name"
+      awk -F, -v n="$name" 'NR > 1 && $3 == 1 && $1 < 1e-8 { s += $2; n1++ }
+        END { if (n1) printf "| Z (1 - nu/phi_J) = 3 +-1%% for phi_J - nu < 1e-8 (§10 row 14) | %s, growing run, %d blocks with 1e-9 <= phi_J - nu < 1e-8: %.3f | %+.1f%% |\n", n, n1, s/n1, 100*(s/n1/3 - 1) }' \
+        "$OUT/$id-fv.csv"
+      if [ -s "$OUT/$id-fixed.csv" ]; then
+        awk -F, -v n="$name" 'NR > 1 && $3 < 1e-8 * 1.5 { printf "| same | %s, fixed density, phi_J - nu = %s: %.3f | %+.1f%% |\n", n, $3, $6, 100*($6/3 - 1) }' \
+          "$OUT/$id-fixed.csv"
+      fi
+    done
+    for name in "${NEARJ_DONE[@]}"; do
+      id="jam12-$name"
+      read -r phif zf pj < "$OUT/$id.phij"
+      ov=$(awk '/^largest overlap/ {gsub(/\)/, "", $7); print $3 " at the end, " $7 " at collisions"}' "$OUT/$id.log")
+      awk -v n="$name" -v z="$zf" -v ov="$ov" -v pj="$pj" -v pf="$phif" 'BEGIN {
+        printf "| final Z >= 1e13 without overlap errors (§10 row 14; §5 row 25) | %s: Z = %.4g (target %s), largest relative overlap %s | Z %.0fx below 1e13 (double precision; not tried beyond the target in this step) |\n", n, z, "'"$NEARJ_TARGET"'", ov, 1e13/z
+        printf "| phi_J - nu_max <= 1e-13 (§5 row 25) | %s: 3 phi/Z_final = %.2g | %.0fx larger |\n", n, pj - pf, (pj - pf)/1e-13 }'
+    done
+    echo
+    echo "![free volume near jamming]($REL/freevolume_jam.png)"
+    echo
+  fi
   if [ -f "$OUT/discussion.md" ]; then cat "$OUT/discussion.md"; fi
 } > "$MD"
 echo "wrote $OUT/summary.csv, plots and $MD"
