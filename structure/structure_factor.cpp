@@ -210,12 +210,14 @@ StructureFactor structureFactor(const SphereView& spheres, const Box& box, const
   }
 
   // Shell averages.
-  const int shells = static_cast<int>(std::floor(kmax / out.shellWidth)) + 1;
+  // Shells are centred on multiples of dk, so the axis vectors |n| = 1, 2, ... of a cubic box sit in the
+  // middle of a shell instead of on an edge where rounding would decide their shell.
+  const int shells = static_cast<int>(std::floor(kmax / out.shellWidth + 0.5)) + 1;
   std::vector<double> kSum(static_cast<std::size_t>(shells), 0.0), sSum(kSum.size(), 0.0), cSum(kSum.size(), 0.0);
   std::vector<std::int64_t> count(kSum.size(), 0);
   const double boxVolume = box.volume();
   for (std::size_t v = 0; v < V; ++v) {
-    const int s = std::min(shells - 1, static_cast<int>(std::floor(kNorm[v] / out.shellWidth)));
+    const int s = std::min(shells - 1, static_cast<int>(std::floor(kNorm[v] / out.shellWidth + 0.5)));
     const double S = (sRe[v] * sRe[v] + sIm[v] * sIm[v]) / N;
     kSum[s] += kNorm[v];
     sSum[s] += S;

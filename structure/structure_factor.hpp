@@ -4,7 +4,7 @@
 //   S(k)   = |sum_j exp(-i k.r_j)|^2 / N                         (k != 0)
 //   chi(k) = |sum_j exp(-i k.r_j) m(k; R_j)|^2 / V,   m(k; R) = 4 pi (sin kR - kR cos kR) / k^3
 // on the wave vectors allowed by the box, k = 2 pi (n_x / L_x, n_y / L_y, n_z / L_z), averaged over
-// spherical shells of thickness dk = 2 pi / min L (shell s holds s dk <= |k| < (s + 1) dk), with k
+// spherical shells of thickness dk = 2 pi / min L (shell s holds (s - 1/2) dk <= |k| < (s + 1/2) dk), with k
 // reported as K = k D, D = 2 <r>. Only half of k-space is summed (S(-k) = S(k) for real densities).
 //
 // Cost: N x (number of wave vectors, ~ (2/3) pi (K_max L / (2 pi D))^3) complex multiply-adds. No

@@ -78,7 +78,7 @@ TEST(StructureFactor, ShellAveragesMatchDirectSummation) {
         const Eigen::Vector3d k = 2 * kPi * Eigen::Vector3d(a, b, c).cwiseQuotient(box.lengths());
         if (k.norm() > kmax) continue;
         const StructureFactorValue v = structureFactorAt(spheres, box, {a, b, c});
-        const auto shell = static_cast<std::size_t>(std::floor(k.norm() / dk));
+        const auto shell = static_cast<std::size_t>(std::floor(k.norm() / dk + 0.5));
         s[shell] += v.s;
         chi[shell] += v.chi;
         kk[shell] += k.norm() * D;
