@@ -216,9 +216,10 @@ Runner addJam(CLI::App& app) {
       eq = edmd::runAtFixedDensity(system, opt->runCollisions);
       fmt::print(
           "fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
-          "{:.3g} events/s, {:.2f} s\n",
+          "{:.3g} events/s, {:.2f} s; {:.1f} neighbours per sphere, {:.3f} exits per collision\n",
           opt->runCollisions, fmtPressure(eq.pressure), fmtPressure(pressure), eq.collisionsPerSecond,
-          eq.eventsPerSecond, eq.wallSeconds);
+          eq.eventsPerSecond, eq.wallSeconds, system.meanNeighbours(),
+          static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)));
       pressure = eq.pressure;
     }
 
