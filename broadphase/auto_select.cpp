@@ -2,7 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "broadphase/calibrate_k.hpp"
+#include "core/errors.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
 #include "broadphase/linked_cell.hpp"
@@ -38,6 +41,14 @@ HGridConfig CachedGridOptimiser::operator()(const SphereView& spheres, const Box
 
 Capabilities AutoSelect::capabilities() const { return chosen_ ? chosen_->capabilities() : Capabilities{}; }
 
+void AutoSelect::setHierarchyOverhead(double factor) {
+  if (!(factor >= 1.0) || !std::isfinite(factor)) {
+    throw ConfigError(fmt::format("auto: hierarchy overhead must be a finite factor >= 1, got {}", factor));
+  }
+  hierarchyOverhead_ = factor;
+  chosen_.reset();  // choose again at the next build
+}
+
 bool AutoSelect::sameInputs(const SphereView& spheres) const {
   return chosen_ && lastBox_ == box_ && lastSkin_ == skin_ && sameRadii(radii_, spheres);
 }
@@ -54,7 +65,10 @@ void AutoSelect::doBuild(const SphereView& spheres) {
       OptimiserOptions options;
       options.K = costRatio_ ? *costRatio_ : modelCostRatio();
       const OptimiserResult result = optimiseHGrid(CostModelPsd::sample(radii_, box_.volume(), skin_), options);
-      if (result.chosen.linkedCell) {
+      const double linkedPredicted = result.table.front().topDown.predicted;  // L = 1: cells of the largest reach
+      const bool keepLinked =
+          !result.chosen.linkedCell && linkedPredicted <= hierarchyOverhead_ * result.chosen.predicted;
+      if (result.chosen.linkedCell || keepLinked) {
         chosen_ = std::make_unique<LinkedCell>();
       } else if (result.chosen.config.mode == CrossLevel::TopDown) {
         auto grid = std::make_unique<HGridTopDown>();
@@ -66,6 +80,11 @@ void AutoSelect::doBuild(const SphereView& spheres) {
         chosen_ = std::move(grid);
       }
       reason_ = fmt::format("{} [K = {:.3g}]", result.summary(), options.K);
+      if (keepLinked) {
+        reason_ = fmt::format("linked-cell T/N={:.4g}, within {:g}x of the best HGrid's (the measured cost of "
+                              "HGrid work, docs/benchmarks/model); {}",
+                              linkedPredicted, hierarchyOverhead_, reason_);
+      }
     }
   }
   chosen_->setCounting(counting_);

@@ -49,6 +49,13 @@ class AutoSelect final : public BroadPhase {
   /// Cell-access over pair-test cost ratio for the model; default: measured on this machine once per
   /// process (calibrate_k.hpp).
   void setCostRatio(double K) { costRatio_ = K; }
+  /// Linked cell is kept unless the best HGrid's predicted work is below the linked cell's by more than
+  /// this factor (>= 1). A unit of HGrid work (pair test or cell access, eq. 2.35) costs about twice a
+  /// unit of one-level work here: `polydem bench model` (docs/benchmarks/model) measured 1.9-2.8x at
+  /// power-law alpha = 0, where the model predicts 1.8-1.9x less work for the HGrid but linked cell ran
+  /// 10-30% faster; at alpha <= -1 the predicted gap is 3.4x or more and the HGrid wins.
+  void setHierarchyOverhead(double factor);
+  static constexpr double kDefaultHierarchyOverhead = 2.0;
 
  protected:
   void doBuild(const SphereView& spheres) override;
@@ -60,6 +67,7 @@ class AutoSelect final : public BroadPhase {
   std::unique_ptr<BroadPhase> chosen_;
   std::string reason_;
   std::optional<double> costRatio_;
+  double hierarchyOverhead_ = kDefaultHierarchyOverhead;
   // Inputs of the last optimisation.
   std::vector<double> radii_;
   Box lastBox_;

@@ -11,6 +11,7 @@
 #include <numeric>
 #include <vector>
 
+#include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
 #include "broadphase/calibrate_k.hpp"
 #include "broadphase/hgrid.hpp"
@@ -591,5 +592,30 @@ TEST(CalibrateK, CachedPerProcessAndDefault) {
   EXPECT_DOUBLE_EQ(d.K, kDefaultCellOverPairCost);
 }
 
+// auto keeps linked cell unless the HGrid's predicted work is below it by more than the measured
+// hierarchy overhead (2x, docs/benchmarks/model): uniform radius omega = 10 (model: HGrid 1.8x less work,
+// measured: linked cell faster) stays linked cell; uniform volume omega = 10 (model: 30x less) gets an
+// HGrid; with the overhead set to 1 the plain model decides and picks the HGrid for both.
+TEST(AutoSelect, KeepsLinkedCellUnlessTheHGridSavesMoreThanItsOverhead) {
+  auto chosenName = [](const test::Scene& scene, double overhead) {
+    broadphase::AutoSelect a;
+    a.setCostRatio(0.4);
+    a.setHierarchyOverhead(overhead);
+    a.build(scene.spheres(), scene.box, 0.1 * scene.minRadius());
+    return std::string(a.chosen()->name());
+  };
+  const test::Scene us = test::makeScene({.count = 20000, .distribution = "uniform-radius", .sizeRatio = 10.0,
+                                          .packing = 0.5, .seed = 3});
+  const test::Scene uv = test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 10.0,
+                                          .packing = 0.5, .seed = 3});
+  EXPECT_EQ(chosenName(us, broadphase::AutoSelect::kDefaultHierarchyOverhead), "linked-cell");
+  EXPECT_EQ(chosenName(uv, broadphase::AutoSelect::kDefaultHierarchyOverhead), "hgrid-td");
+  EXPECT_EQ(chosenName(us, 1.0), "hgrid-td");
+  broadphase::AutoSelect a;
+  EXPECT_THROW(a.setHierarchyOverhead(0.5), ConfigError);
+  EXPECT_THROW(a.setHierarchyOverhead(std::nan("")), ConfigError);
+}
+
 }  // namespace
 }  // namespace polydem::broadphase
+
