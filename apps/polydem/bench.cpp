@@ -62,6 +62,7 @@ struct BenchOptions {
   std::string dense = "edmd";       ///< when RSA stalls: edmd (compress to the target) or rsa (use less dense)
   std::vector<Index> counts;        ///< N values of the trel suite (empty: the suite's default)
   int steps = 0;                    ///< DEM steps per timed round (0: the suite's default)
+  double equilibrate = -1.0;        ///< trel: EDMD collisions per particle at fixed density (< 0: default)
 };
 
 struct BenchScene {
@@ -114,7 +115,7 @@ std::filesystem::path stateCache(const BenchOptions& opt) {
 /// `polydem jam --target-phi`), or (dense = rsa) the densest RSA state in steps of 0.04. Compressed
 /// states are cached as HDF5 files keyed by distribution, N, packing and seed. Particles are Morton-sorted.
 BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec, Index count, double packing,
-                          std::uint64_t seed) {
+                          std::uint64_t seed, double equilibrate = 0.0) {
   const auto dist = makeDistribution(spec);
   PackingRequest request;
   request.radii = dist->sample(count, Sampling::Systematic, seed);
@@ -135,16 +136,17 @@ BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec,
     scene.label += " (walls)";
   }
   const std::filesystem::path cached =
-      stateCache(opt) / fmt::format("{}_w{:g}_a{:g}_n{}_phi{:g}_s{}{}.h5", spec.kind, spec.omega, spec.alpha, count,
-                                    packing, seed, request.boundaries[0] == Boundary::Wall ? "_walls" : "");
-  if (opt.dense == "edmd" && std::filesystem::exists(cached)) {
+      stateCache(opt) / fmt::format("{}_w{:g}_a{:g}_n{}_phi{:g}_s{}{}{}.h5", spec.kind, spec.omega, spec.alpha, count,
+                                    packing, seed, request.boundaries[0] == Boundary::Wall ? "_walls" : "",
+                                    equilibrate > 0.0 ? fmt::format("_eq{:g}", equilibrate) : std::string());
+  if ((opt.dense == "edmd" || equilibrate > 0.0) && std::filesystem::exists(cached)) {
     const io::ParticleData data = io::readParticles(cached);
     scene.config.box = data.box;
     scene.config.position = data.position;
     scene.config.radius = data.radius;
     mortonSort(scene.config);
     scene.packing = packing;
-    scene.placement = fmt::format("edmd (cached {})", cached.filename().string());
+    scene.placement = fmt::format("cached {}", cached.filename().string());
     return scene;
   }
   for (double phi = packing; phi > 0.05; phi -= 0.04) {
@@ -155,24 +157,37 @@ BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec,
       continue;  // RSA stalled: try a little less dense
     }
     scene.packing = phi;
+    const bool compressing = phi != packing && opt.dense == "edmd";
     if (phi == packing) {
       scene.placement = "rsa";
-    } else if (opt.dense == "edmd") {
+    } else if (!compressing) {
+      scene.placement = fmt::format("rsa (stalled at {:.2f}, used {:.2f})", packing, phi);
+    }
+    if (compressing || equilibrate > 0.0) {
       Stopwatch clock;
       edmd::HardSphereSystem system(scene.config.box, scene.config.position, scene.config.radius,
                                     thermalVelocities(scene.config.radius, seed), edmd::SystemOptions{});
-      edmd::CompressionOptions copt;
-      copt.schedule = {{1e-2, std::numeric_limits<double>::infinity()}};
-      copt.targetPackingFraction = packing;
-      const edmd::CompressionResult r = edmd::compress(system, copt);
+      if (compressing) {
+        edmd::CompressionOptions copt;
+        copt.schedule = {{1e-2, std::numeric_limits<double>::infinity()}};
+        copt.targetPackingFraction = packing;
+        const edmd::CompressionResult r = edmd::compress(system, copt);
+        scene.placement = fmt::format("edmd from rsa {:.2f}", phi);
+        fmt::print("  {} N = {}: RSA stalled, event-driven compression {:.2f} -> {:.3f} ({}, {:.0f} collisions per "
+                   "particle, {:.1f} s)\n",
+                   scene.label, count, phi, system.packingFraction(), r.stopReason,
+                   static_cast<double>(r.counts.collisions) / count, clock.seconds());
+      }
+      if (equilibrate > 0.0) {
+        // Random sequential addition leaves every sphere apart from its neighbours, unlike a compressed
+        // fluid: relax all states the same way (hard-sphere collisions at fixed density) so that systems
+        // prepared differently have comparable local structure.
+        edmd::runAtFixedDensity(system, equilibrate, std::min(equilibrate, 100.0));
+        scene.placement += fmt::format(", {:g} collisions/particle at fixed density", equilibrate);
+      }
       scene.config.position = system.positions();
       scene.config.radius = system.radii();
       scene.packing = system.packingFraction();
-      scene.placement = fmt::format("edmd from rsa {:.2f}", phi);
-      fmt::print("  {} N = {}: RSA stalled, event-driven compression {:.2f} -> {:.3f} ({}, {:.0f} collisions per "
-                 "particle, {:.1f} s)\n",
-                 scene.label, count, phi, scene.packing, r.stopReason,
-                 static_cast<double>(r.counts.collisions) / count, clock.seconds());
       std::filesystem::create_directories(cached.parent_path());
       io::ParticleData data;
       data.box = scene.config.box;
@@ -180,11 +195,9 @@ BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec,
       data.radius = scene.config.radius;
       data.id.resize(static_cast<std::size_t>(count));
       for (Index i = 0; i < count; ++i) data.id[static_cast<std::size_t>(i)] = i;
-      data.attributes["generator"] = "polydem bench (event-driven compression, rate 1e-2)";
+      data.attributes["generator"] = "polydem bench: " + scene.placement;
       data.attributes["distribution"] = dist->describe();
       io::writeParticles(cached, data);
-    } else {
-      scene.placement = fmt::format("rsa (stalled at {:.2f}, used {:.2f})", packing, phi);
     }
     mortonSort(scene.config);
     return scene;
@@ -338,7 +351,7 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const BenchScene& scene, const
       scene.placement, outcome.bestLevels, outcome.speedupOverOneLevel,
       static_cast<double>(bestRow.tcd) / count, bestRow.modelCd, static_cast<double>(bestRow.tca) / count,
       bestRow.modelCa,
-      outcome.speedupOverOneLevel, appendix.optimalLevels,
+      appendix.optimalLevels,
       [&] {
         int best = 1;
         for (const Row& r : rows)
@@ -724,6 +737,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
   const std::vector<Index> counts =
       !opt.counts.empty() ? opt.counts : (quick ? std::vector<Index>{2000, 5000} : std::vector<Index>{10000, 30000, 100000});
   const int steps = opt.steps > 0 ? opt.steps : (quick ? 40 : 200);
+  const double equilibrate = opt.equilibrate >= 0.0 ? opt.equilibrate : (quick ? 2.0 : 20.0);
   struct System {
     std::string kind;
     double omega;
@@ -738,7 +752,9 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
          "broad_phase_share,force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle\n";
   markdown += fmt::format(
       "## DEM time relative to the monodisperse system against N (seed 000 Fig. 2.6)\n\n"
-      "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere), linear\n"
+      "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere). Every state\n"
+      "(random sequential addition, event-driven compression where RSA stalls) is then relaxed by {:g} hard-sphere\n"
+      "collisions per particle at fixed density, so all systems have the local structure of a fluid. Linear\n"
       "elastic contacts, 1% impact overlap of the smallest pair, dt = t_c,min / 50, Verlet skin 0.2 r_min.\n"
       "Each round advances every system {} steps, the systems taking turns (interleaved), {} rounds; thread CPU\n"
       "time, median over rounds. T_rel = time of the system / time of the monodisperse system of the same N\n"
@@ -747,7 +763,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
       "rebuilds), force and integration as shares of the loop's wall time (CPU time is not split).\n\n"
       "| N | system | placement | broad phase | neighbour pairs / particle | us/particle/step | T_rel | broad phase / force / integration |\n"
       "| --- | --- | --- | --- | --- | --- | --- | --- |\n",
-      packing, steps, opt.repeat);
+      packing, equilibrate, steps, opt.repeat);
   std::map<std::string, std::vector<std::pair<Index, double>>> trel;
   for (Index n : counts) {
     std::vector<DemCase> cases;
@@ -756,7 +772,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
       spec.kind = sys.kind;
       spec.omega = sys.omega;
       Stopwatch prep;
-      const BenchScene scene = makeBenchScene(opt, spec, n, packing, 6);
+      const BenchScene scene = makeBenchScene(opt, spec, n, packing, 6, equilibrate);
       DemCase c;
       c.label = scene.label;
       c.backend = sys.backend;
@@ -998,6 +1014,9 @@ Runner addBench(CLI::App& app) {
                   "or rsa (use the densest RSA state)")
       ->check(CLI::IsMember({"edmd", "rsa"}))
       ->capture_default_str();
+  cmd->add_option("--equilibrate", opt->equilibrate,
+                  "trel: event-driven collisions per particle at fixed density applied to every state (default 20; "
+                  "quick 2)");
   cmd->add_option("--cache", opt->cacheDir, "directory for compressed dense states (default: <out>/states)");
   return [opt, cmd]() {
     if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
