@@ -48,22 +48,6 @@ struct Start {
   Eigen::VectorXd radius;
 };
 
-Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
-  const Index n = static_cast<Index>(radius.size());
-  std::mt19937_64 rng(seed ^ 0x5851f42d4c957f2dULL);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Matrix3Xd v(3, n);
-  Eigen::VectorXd mass = radius.array().cube();
-  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
-  for (Index i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
-    momentum += mass[i] * v.col(i);
-  }
-  const Eigen::Vector3d drift = momentum / mass.sum();
-  for (Index i = 0; i < n; ++i) v.col(i) -= drift;
-  return v;
-}
-
 // `earlierRules`: compress with the skin rules from before speedScaledFloor / balanceSkinByWork, so that
 // the start (and with it the whole run) is bit for bit the one of the code before them.
 const Start& startAtHalf(int which, bool earlierRules) {
@@ -94,13 +78,14 @@ const Start& startAtHalf(int which, bool earlierRules) {
   request.seed = seed;
   const Configuration rsa = randomSequentialAddition(request);
   if (which == 3) {
-    Start s{rsa.box, rsa.position, randomVelocities(rsa.radius, seed), rsa.radius};
+    Start s{rsa.box, rsa.position, edmd::maxwellBoltzmannVelocities(rsa.radius, seed), rsa.radius};
     return cache.emplace(key, std::move(s)).first->second;
   }
   edmd::SystemOptions systemOptions;
   systemOptions.speedScaledFloor = !earlierRules;
   systemOptions.balanceSkinByWork = !earlierRules;
-  edmd::HardSphereSystem system(rsa.box, rsa.position, rsa.radius, randomVelocities(rsa.radius, seed), systemOptions);
+  edmd::HardSphereSystem system(rsa.box, rsa.position, rsa.radius, edmd::maxwellBoltzmannVelocities(rsa.radius, seed),
+                                systemOptions);
   edmd::CompressionOptions options;
   options.schedule = {{1e-2, edmd::HardSphereSystem::kInfinity}};
   options.targetPackingFraction = 0.5;

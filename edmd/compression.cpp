@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <random>
 #include <sstream>
 
 #include "core/errors.hpp"
@@ -197,6 +198,21 @@ EquilibriumRun runAtFixedDensity(HardSphereSystem& system, double collisionsPerP
   out.collisionsPerSecond = static_cast<double>(out.counts.collisions) / out.wallSeconds;
   out.eventsPerSecond = static_cast<double>(out.counts.events()) / out.wallSeconds;
   return out;
+}
+
+Eigen::Matrix3Xd maxwellBoltzmannVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
+  const Index n = static_cast<Index>(radius.size());
+  std::mt19937_64 rng(seed ^ 0x5851f42d4c957f2dULL);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  Eigen::Matrix3Xd v(3, n);
+  const Eigen::VectorXd mass = radius.array().cube();
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
+    momentum += mass[i] * v.col(i);
+  }
+  if (n > 1) v.colwise() -= momentum / mass.sum();
+  return v;
 }
 
 }  // namespace polydem::edmd

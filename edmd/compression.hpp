@@ -72,6 +72,10 @@ struct CompressionResult {
   double wallSeconds = 0.0;
 };
 
+/// Maxwell-Boltzmann start velocities: components ~ N(0, 1/m) with masses proportional to r^3, the
+/// centre-of-mass drift removed (the thermostat rescales them afterwards). Deterministic in `seed`.
+Eigen::Matrix3Xd maxwellBoltzmannVelocities(const Eigen::VectorXd& radius, std::uint64_t seed);
+
 /// Free-volume estimate of the jamming density, phi / (1 - d/p) with d = 3 (seed 001 eq. 1.2).
 inline double jammingDensityEstimate(double phi, double pressure) {
   return pressure > 3.0 ? phi / (1.0 - 3.0 / pressure) : std::numeric_limits<double>::quiet_NaN();

@@ -89,22 +89,6 @@ void mortonSort(Configuration& c) {
   c.radius.swap(radius);
 }
 
-/// Maxwell-Boltzmann velocities (masses ~ r^3), centre-of-mass drift removed: the EDMD start.
-Eigen::Matrix3Xd thermalVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
-  const Index n = static_cast<Index>(radius.size());
-  std::mt19937_64 rng(seed ^ 0x2545f4914f6cdd1dULL);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Matrix3Xd v(3, n);
-  const Eigen::VectorXd mass = radius.array().cube();
-  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
-  for (Index i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
-    momentum += mass[i] * v.col(i);
-  }
-  if (n > 1) v.colwise() -= momentum / mass.sum();
-  return v;
-}
-
 std::filesystem::path stateCache(const BenchOptions& opt) {
   return opt.cacheDir.empty() ? std::filesystem::path(opt.out) / "states" : std::filesystem::path(opt.cacheDir);
 }
@@ -166,7 +150,7 @@ BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec,
     if (compressing || equilibrate > 0.0) {
       Stopwatch clock;
       edmd::HardSphereSystem system(scene.config.box, scene.config.position, scene.config.radius,
-                                    thermalVelocities(scene.config.radius, seed), edmd::SystemOptions{});
+                                    edmd::maxwellBoltzmannVelocities(scene.config.radius, seed), edmd::SystemOptions{});
       if (compressing) {
         edmd::CompressionOptions copt;
         copt.schedule = {{1e-2, std::numeric_limits<double>::infinity()}};

@@ -47,25 +47,6 @@ struct JamOptions {
   std::string eosCsv;
 };
 
-/// Maxwell-Boltzmann velocities (component variance ~ 1/m), centre-of-mass velocity removed.
-Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
-  const Index n = static_cast<Index>(radius.size());
-  std::mt19937_64 rng(seed ^ 0x5851f42d4c957f2dULL);
-  std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Matrix3Xd v(3, n);
-  Eigen::VectorXd mass = radius.array().cube();
-  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();
-  for (Index i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) v(k, i) = normal(rng) / std::sqrt(mass[i]);
-    momentum += mass[i] * v.col(i);
-  }
-  if (n > 1) {
-    const Eigen::Vector3d drift = momentum / mass.sum();
-    for (Index i = 0; i < n; ++i) v.col(i) -= drift;
-  }
-  return v;
-}
-
 std::string fmtPressure(double p) { return std::isfinite(p) ? fmt::format("{:.4g}", p) : std::string("-"); }
 
 }  // namespace
@@ -169,7 +150,8 @@ Runner addJam(CLI::App& app) {
     sopt.broadPhase = opt->broadPhase;
     sopt.neighbourhoodScale = opt->neighbourhoodScale;
     sopt.skinCap = opt->skinCap;
-    edmd::HardSphereSystem system(start.box, start.position, start.radius, randomVelocities(start.radius, opt->seed),
+    edmd::HardSphereSystem system(start.box, start.position, start.radius,
+                                  edmd::maxwellBoltzmannVelocities(start.radius, opt->seed),
                                   sopt);
     fmt::print("start: {}\n", origin);
     fmt::print("box {}, {} spheres, size ratio {:.4g}, phi {:.6f}; neighbour lists: {} ({:.1f} per sphere)\n",

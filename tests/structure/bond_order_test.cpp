@@ -108,7 +108,7 @@ TEST(BondOrder, PerfectLatticesWithFirstShellNeighbours) {
 }
 
 TEST(BondOrder, BccDelaunayNeighboursAreTheFourteenOfTheFirstTwoShells) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   // BCC's Voronoi cell (truncated octahedron) is simple, so the Delaunay triangulation is unique: 8 + 6
   // neighbours, q6 = 0.5106882 exactly (the literature BCC value).
   const test::Lattice bcc = test::bcc(4);
@@ -120,7 +120,7 @@ TEST(BondOrder, BccDelaunayNeighboursAreTheFourteenOfTheFirstTwoShells) {
 }
 
 TEST(BondOrder, DegenerateLatticesWithDelaunayNeighboursAreFullyCrystalline) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   // FCC / HCP octahedra and SC cubes are cospherical: the triangulation splits them arbitrarily and
   // adds some second-shell neighbours, so q6 is not the first-shell value, but every particle keeps its
   // first shell and stays solid-like (d6 > 0.65 with >= 6 neighbours).
@@ -143,7 +143,7 @@ TEST(BondOrder, DegenerateLatticesWithDelaunayNeighboursAreFullyCrystalline) {
 }
 
 TEST(BondOrder, IdealGasIsNotCrystalline) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   const test::Lattice gas = test::idealGas(3000, 20.0, 0.1, 7);
   const BondOrder order = bondOrder(delaunayNeighbours(gas.spheres(), gas.box));
   EXPECT_LT(order.crystallineFraction, 0.02);
@@ -153,7 +153,7 @@ TEST(BondOrder, IdealGasIsNotCrystalline) {
 }
 
 TEST(BondOrder, MatchesTheAdditionTheoremOnRandomBondSets) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   const test::Lattice gas = test::idealGas(200, 6.0, 0.1, 11);
   const NeighbourList nb = delaunayNeighbours(gas.spheres(), gas.box);
   const BondOrder order = bondOrder(nb);

@@ -30,7 +30,7 @@ Row rowOf(const NeighbourList& nb, Index i, Index modulo) {
 }
 
 TEST(DelaunayNeighbours, PeriodicImagesMatchAnExplicitlyReplicatedBox) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   // A polydisperse RSA packing, once periodic, once as 27 copies in a walled box: the middle copy's
   // neighbours must be the periodic ones (same partners, same vectors).
   std::vector<double> radii;
@@ -67,7 +67,7 @@ TEST(DelaunayNeighbours, PeriodicImagesMatchAnExplicitlyReplicatedBox) {
 }
 
 TEST(DelaunayNeighbours, ListsAreSymmetric) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   const test::Lattice gas = test::idealGas(500, 8.0, 0.2, 3);
   const NeighbourList nb = delaunayNeighbours(gas.spheres(), gas.box);
   for (Index i = 0; i < nb.count(); ++i) {
@@ -83,7 +83,7 @@ TEST(DelaunayNeighbours, ListsAreSymmetric) {
 }
 
 TEST(DelaunayNeighbours, PoissonPointsHaveFifteenPointFiveNeighbours) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   // Mean face count of the Poisson-Voronoi cell: 48 pi^2 / 35 + 2 = 15.535 (Meijering 1953). A dilute
   // gas needs a shell of several spacings: the verification must have grown it.
   const test::Lattice gas = test::idealGas(4000, 100.0, 0.01, 17);
@@ -94,7 +94,7 @@ TEST(DelaunayNeighbours, PoissonPointsHaveFifteenPointFiveNeighbours) {
 }
 
 TEST(DelaunayNeighbours, WalledBoxHasNoImages) {
-  if (!POLYDEM_WITH_CGAL) GTEST_SKIP() << "built without CGAL: no Delaunay neighbours";
+  ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
   const test::Lattice gas = test::idealGas(300, 6.0, 0.2, 4);
   const Box walled(gas.box.lengths(), {Boundary::Wall, Boundary::Periodic, Boundary::Wall});
   const NeighbourList nb = delaunayNeighbours(gas.spheres(), walled);
