@@ -180,7 +180,7 @@ Runner addJam(CLI::App& app) {
     edmd::Progress lastShown;
     const edmd::CompressionResult result = edmd::compress(system, copt, [&](const edmd::Progress& p) {
       if (eosCsv.is_open()) {
-        eosCsv << fmt::format("{:.10f},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
+        eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
                               p.collisionsPerParticle, p.time, p.wallSeconds);
       }
       if (p.wallSeconds - lastPrint >= opt->progressSeconds) {
