@@ -12,17 +12,10 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "tests/support/scene.hpp"
 
 namespace polydem {
 namespace {
-
-Moments analytic(const std::string& kind, double omega, double sigma = 0.5) {
-  DistributionSpec spec;
-  spec.kind = kind;
-  spec.omega = omega;
-  spec.sigma = sigma;
-  return momentsOf(*makeDistribution(spec));
-}
 
 /// <a^k> of a mixture.
 double mixtureMoment(const Mixture& m, int k) {
@@ -56,7 +49,7 @@ constexpr Table31Row kTable31[] = {
 TEST(EquivalentMixture, Table31Bidisperse) {
   for (const Table31Row& row : kTable31) {
     SCOPED_TRACE(::testing::Message() << row.kind << " omega " << row.omega);
-    const Moments m = analytic(row.kind, row.omega);
+    const Moments m = test::analyticMoments(row.kind, row.omega);
     EXPECT_NEAR(m.o1, row.o1, 0.0005 + 1e-12);
     EXPECT_NEAR(m.o2, row.o2, 0.0005 + 1e-12);
     EXPECT_NEAR(m.delta, row.delta, 0.005 + 1e-12);
@@ -77,19 +70,19 @@ TEST(EquivalentMixture, Table31Bidisperse) {
 
 TEST(EquivalentMixture, Table31Limits) {
   // US omega -> inf: O1 -> 2/3, O2 -> 16/27, R_bi -> 2 + sqrt(3), delta -> sqrt(3)/3; UV: O1, O2 -> 0.
-  const Moments us = analytic("uniform-radius", 1e9);
+  const Moments us = test::analyticMoments("uniform-radius", 1e9);
   EXPECT_NEAR(us.o1, 2.0 / 3.0, 1e-8);
   EXPECT_NEAR(us.o2, 16.0 / 27.0, 1e-8);
   EXPECT_NEAR(us.delta, std::sqrt(3.0) / 3.0, 1e-8);
   const Mixture bi = equivalentBidisperse(us);
   EXPECT_NEAR(bi.radius[0] / bi.radius[1], 2 + std::sqrt(3.0), 1e-6);
   EXPECT_NEAR(bi.numberFraction[0], 0.5, 1e-9);
-  const Moments uv = analytic("uniform-volume", 1e9);
+  const Moments uv = test::analyticMoments("uniform-volume", 1e9);
   EXPECT_LT(uv.o1, 1e-7);
   EXPECT_LT(uv.o2, 1e-13);  // 2 ln^3(omega)/omega^2 = 1.8e-14
   // omega = 1: a single species.
-  EXPECT_EQ(equivalentBidisperse(analytic("uniform-radius", 1.0)).size(), 1u);
-  EXPECT_EQ(equivalentTridisperse(analytic("uniform-volume", 1.0)).size(), 1u);
+  EXPECT_EQ(equivalentBidisperse(test::analyticMoments("uniform-radius", 1.0)).size(), 1u);
+  EXPECT_EQ(equivalentTridisperse(test::analyticMoments("uniform-volume", 1.0)).size(), 1u);
   EXPECT_THROW(bidisperseFromRatios(1.0, 1.0), ConfigError);
 }
 
@@ -133,21 +126,21 @@ void expectTriRow(const Moments& m, const TriRow& row) {
 TEST(EquivalentMixture, Table33UniformVolumeTridisperse) {
   for (const TriRow& row : kTable33) {
     SCOPED_TRACE(::testing::Message() << "UV omega " << row.param);
-    expectTriRow(analytic("uniform-volume", row.param), row);
+    expectTriRow(test::analyticMoments("uniform-volume", row.param), row);
   }
 }
 
 TEST(EquivalentMixture, Table34LogNormalTridisperse) {
   for (const TriRow& row : kTable34) {
     SCOPED_TRACE(::testing::Message() << "log-normal sigma " << row.param);
-    expectTriRow(analytic("log-normal", 0.0, row.param), row);
+    expectTriRow(test::analyticMoments("log-normal", 0.0, row.param), row);
   }
 }
 
 TEST(EquivalentMixture, UniformSizeIsGaussLegendre585) {
   for (double omega : {1.2, 3.0, 10.0, 100.0}) {
     SCOPED_TRACE(omega);
-    const Moments m = analytic("uniform-radius", omega);
+    const Moments m = test::analyticMoments("uniform-radius", omega);
     const Mixture tri = equivalentTridisperse(m);
     const Mixture closed = uniformSizeTridisperse(omega, m.mean());
     ASSERT_EQ(tri.size(), 3u);
@@ -170,7 +163,7 @@ TEST(EquivalentMixture, UniformSizeIsGaussLegendre585) {
 
 TEST(EquivalentMixture, KurtosisFamily) {
   const double omega = 3.0;
-  const Moments us = analytic("uniform-radius", omega);
+  const Moments us = test::analyticMoments("uniform-radius", omega);
   for (double beta2 : {1.05, 1.5, 1.8, 4.0, 8.0, 11.5}) {
     SCOPED_TRACE(beta2);
     const Mixture mix = kurtosisTridisperse(beta2, omega, us.mean());
@@ -202,8 +195,8 @@ TEST(EquivalentMixture, KurtosisFamily) {
 TEST(EquivalentMixture, WideDistributionsStayAccurate) {
   // UV omega = 100 and log-normal sigma = 1: the rule reproduces all six moments, positive nodes and weights.
   for (const Moments& m :
-       {analytic("uniform-volume", 100), analytic("uniform-volume", 1000), analytic("log-normal", 0, 1.0),
-        analytic("log-normal", 0, 1.5), analytic("power-law", 100)}) {
+       {test::analyticMoments("uniform-volume", 100), test::analyticMoments("uniform-volume", 1000), test::analyticMoments("log-normal", 0, 1.0),
+        test::analyticMoments("log-normal", 0, 1.5), test::analyticMoments("power-law", 100)}) {
     const Mixture tri = equivalentTridisperse(m);
     ASSERT_EQ(tri.size(), 3u);
     for (int k = 0; k <= 5; ++k) {
@@ -292,7 +285,7 @@ TEST(EquivalentMixture, IntegerRealisationUsesLargestRemainders) {
 }
 
 TEST(EquivalentMixture, BadInputIsAnError) {
-  const Moments m = analytic("uniform-radius", 2);
+  const Moments m = test::analyticMoments("uniform-radius", 2);
   EXPECT_THROW(gaussMixture(m, 0), ConfigError);
   EXPECT_THROW(gaussMixture(m, 4), ConfigError);
   EXPECT_THROW(makeMixture({1.0}, {0.5, 0.5}), ConfigError);

@@ -10,23 +10,16 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "tests/support/scene.hpp"
 
 namespace polydem {
 namespace {
-
-Moments analytic(const std::string& kind, double omega, double sigma = 0.5) {
-  DistributionSpec spec;
-  spec.kind = kind;
-  spec.omega = omega;
-  spec.sigma = sigma;
-  return momentsOf(*makeDistribution(spec));
-}
 
 TEST(Moments, UniformSizeClosedForms) {
   for (double omega : {1.2, 2.0, 5.0, 50.0}) {
     SCOPED_TRACE(omega);
     const double w0 = (omega - 1) / (omega + 1);
-    const Moments m = analytic("uniform-radius", omega);
+    const Moments m = test::analyticMoments("uniform-radius", omega);
     // eq. 3.23
     EXPECT_NEAR(m.o1, 1 - 2.0 / 3.0 * w0 * w0 / (1 + w0 * w0), 1e-13);
     EXPECT_NEAR(m.o2, std::pow(3 + w0 * w0, 3) / (27 * std::pow(1 + w0 * w0, 2)), 1e-13);
@@ -47,7 +40,7 @@ TEST(Moments, UniformVolumeClosedForms) {
   for (double omega : {1.5, 4.0, 10.0, 100.0}) {
     SCOPED_TRACE(omega);
     const double w0 = (omega - 1) / (omega + 1), l = std::log(omega);
-    const Moments m = analytic("uniform-volume", omega);
+    const Moments m = test::analyticMoments("uniform-volume", omega);
     EXPECT_NEAR(m.o1, 2 * omega * l / (omega * omega - 1), 1e-13);  // eq. 3.24
     EXPECT_NEAR(m.o2, 2 * omega * omega * l * l * l / (std::pow(omega - 1, 3) * (omega + 1)), 1e-13);
     // eq. 3.44
@@ -62,7 +55,7 @@ TEST(Moments, UniformVolumeClosedForms) {
 TEST(Moments, LogNormalClosedFormsAndDiameters) {
   for (double sigma : {0.1, 0.5, 1.0}) {
     SCOPED_TRACE(sigma);
-    const Moments m = analytic("log-normal", 0.0, sigma);
+    const Moments m = test::analyticMoments("log-normal", 0.0, sigma);
     const double s2 = sigma * sigma;
     EXPECT_NEAR(m.o1, std::exp(-2 * s2), 1e-13);  // eq. 3.25
     EXPECT_NEAR(m.o2, std::exp(-3 * s2), 1e-13);
@@ -77,8 +70,8 @@ TEST(Moments, LogNormalClosedFormsAndDiameters) {
 }
 
 TEST(Moments, BoundsHoldForEveryFamily) {
-  std::vector<Moments> all = {analytic("uniform-radius", 3), analytic("uniform-volume", 30),
-                              analytic("log-normal", 0, 0.7), analytic("bi", 10), analytic("power-law", 7)};
+  std::vector<Moments> all = {test::analyticMoments("uniform-radius", 3), test::analyticMoments("uniform-volume", 30),
+                              test::analyticMoments("log-normal", 0, 0.7), test::analyticMoments("bi", 10), test::analyticMoments("power-law", 7)};
   for (const Moments& m : all) {
     EXPECT_GT(m.o1, 0.0);
     EXPECT_LT(m.o1, 1.0);
@@ -86,7 +79,7 @@ TEST(Moments, BoundsHoldForEveryFamily) {
     EXPECT_LT(m.o2, m.o1);
     EXPECT_GE(m.kurtosis, 1.0);
   }
-  const Moments mono = analytic("mono", 1);
+  const Moments mono = test::analyticMoments("mono", 1);
   EXPECT_DOUBLE_EQ(mono.o1, 1.0);
   EXPECT_DOUBLE_EQ(mono.o2, 1.0);
   EXPECT_TRUE(mono.monodisperse());
@@ -139,7 +132,7 @@ TEST(Moments, BadInputIsAnError) {
   EXPECT_THROW(momentsOfSample(std::vector<double>{std::numeric_limits<double>::infinity()}), ConfigError);
   EXPECT_THROW(momentsFromRaw({0, 1, 1, 1, 1, 1}), ConfigError);
   EXPECT_THROW(momentsFromRaw({1, 0, 1, 1, 1, 1}), ConfigError);
-  const Moments m = analytic("uniform-radius", 2);
+  const Moments m = test::analyticMoments("uniform-radius", 2);
   EXPECT_THROW(m.diameter(3, 3), ConfigError);
   EXPECT_THROW(m.diameter(6, 1), ConfigError);
   try {

@@ -8,17 +8,10 @@
 
 #include "core/equivalent_mixture.hpp"
 #include "core/errors.hpp"
+#include "tests/support/scene.hpp"
 
 namespace polydem::eos {
 namespace {
-
-Moments analytic(const std::string& kind, double omega, double sigma = 0.5) {
-  DistributionSpec spec;
-  spec.kind = kind;
-  spec.omega = omega;
-  spec.sigma = sigma;
-  return momentsOf(*makeDistribution(spec));
-}
 
 TEST(Eos, MonodisperseHalfIsThirteenForEveryForm) {
   for (Form f : kAllForms) EXPECT_NEAR(z(f, 0.5, {}), 13.0, 1e-12) << formName(f);
@@ -42,7 +35,7 @@ TEST(Eos, CheckValues) {
   EXPECT_NEAR(zCSK(0.3), 3.9843, 5e-5);
   EXPECT_NEAR(zOL(0.3, {}), 3.9790, 5e-5);
   // US omega = 5 (O1 = 0.7949, O2 = 0.7254) at nu = 0.5: BMCSL 10.396, SCS 10.466, OL 10.431
-  const MomentRatios us5 = ratiosOf(analytic("uniform-radius", 5));
+  const MomentRatios us5 = ratiosOf(test::analyticMoments("uniform-radius", 5));
   EXPECT_NEAR(us5.o1, 0.7949, 5e-5);
   EXPECT_NEAR(us5.o2, 0.7254, 5e-5);
   EXPECT_NEAR(zBMCSL(0.5, us5), 10.396, 5e-4);
@@ -51,7 +44,7 @@ TEST(Eos, CheckValues) {
 }
 
 TEST(Eos, PolydisperseIdentities) {
-  const Moments uv = analytic("uniform-volume", 10);
+  const Moments uv = test::analyticMoments("uniform-volume", 10);
   const MomentRatios r = ratiosOf(uv);
   for (double nu : {0.1, 0.4, 0.6}) {
     EXPECT_NEAR(1 + 4 * nu * gEffective(nu, r), zBMCSL(nu, r), 1e-12 * zBMCSL(nu, r));  // eq. 3.8 = 3.9

@@ -66,4 +66,12 @@ std::uint64_t checksum(const std::vector<broadphase::Pair>& pairs) {
   return sum;
 }
 
+Moments analyticMoments(const std::string& kind, double omega, double sigma) {
+  DistributionSpec spec;
+  spec.kind = kind;
+  spec.omega = omega;
+  spec.sigma = sigma;
+  return momentsOf(*makeDistribution(spec));
+}
+
 }  // namespace polydem::test

@@ -9,6 +9,7 @@
 
 #include "broadphase/broad_phase.hpp"
 #include "core/box.hpp"
+#include "core/moments.hpp"
 #include "core/particle_store.hpp"
 
 namespace polydem::test {
@@ -39,5 +40,9 @@ std::vector<broadphase::Pair> pairsFrom(std::string_view backend, const Scene& s
 
 /// Order-independent checksum of a pair set (makes a fast wrong answer visible in benchmarks).
 std::uint64_t checksum(const std::vector<broadphase::Pair>& pairs);
+
+/// Analytic moments of the distribution family `kind` with size ratio `omega` (log-normal: width `sigma`),
+/// other DistributionSpec fields at their defaults.
+Moments analyticMoments(const std::string& kind, double omega, double sigma = 0.5);
 
 }  // namespace polydem::test
