@@ -6,8 +6,12 @@
 #include <array>
 #include <chrono>
 #include <random>
+#include <cstdlib>
+
+#include <Eigen/SparseCore>
 
 #include "core/errors.hpp"
+#include "edmd/interior_point.hpp"
 
 #if POLYDEM_EDMD_WITH_GLPK
 #include <glpk.h>
@@ -101,6 +105,24 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     result.verdict = "unjammed: no contacts";
     return result;
   }
+  // Large backbones: GLPK's simplex does not finish at N' = 10,000 (>30 min), so decide by counting where
+  // counting suffices: fewer than N_f + 1 contacts leave floppy modes, and a hypostatic sphere packing
+  // cannot be jammed (seed :7291-7311, :4473-4476).
+  const std::int64_t periodicAxes = box.periodic(0) + box.periodic(1) + box.periodic(2);
+  const std::int64_t needed = 3 * static_cast<std::int64_t>(backbone.size()) - periodicAxes + 1;
+  if (static_cast<Index>(backbone.size()) > kSimplexLimit) {
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (a.rows < needed) {
+      result.verdict = fmt::format(
+          "unjammed: hypostatic backbone ({} contacts < 3N' - {} + 1 = {}; at least {} floppy modes; by counting, "
+          "no LP above {} spheres)",
+          a.rows, periodicAxes, needed, needed - 1 - a.rows, kSimplexLimit);
+    } else {
+      result.verdict = fmt::format("not tested: {} backbone spheres exceed the simplex limit {} (use the load test)",
+                                   backbone.size(), kSimplexLimit);
+    }
+    return result;
+  }
   const int ne = static_cast<int>(a.ar.size()) - 1;
   auto motionFrom = [&](glp_prob* p) {
     for (std::size_t b = 0; b < backbone.size(); ++b)
@@ -167,6 +189,101 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
+
+#else
+
+JammingTestResult testCollectiveJamming(const SphereView&, const Box&, const ContactNetwork&, double, std::uint64_t) {
+  throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
+}
+
+#endif
+
+namespace {
+
+// The load LP of testJammingUnderLoad in displacement form: max beta.x s.t. A^T x >= -h, |x_c| <= X,
+// pinned coordinates fixed at 0. Columns of A (contacts) as triplets (coordinate, row, value).
+struct LoadLp {
+  int cols = 0;  // coordinates 3 x movable
+  int rows = 0;  // constraints
+  std::vector<Eigen::Triplet<double>> entries;
+  std::vector<double> gap;
+  std::vector<char> pinned;  // per coordinate
+  double bound = 10.0;
+};
+
+#if POLYDEM_EDMD_WITH_GLPK
+std::vector<double> solveLoadSimplex(const LoadLp& lp, const std::vector<double>& beta) {
+  Lp glpk;
+  glp_set_obj_dir(glpk.p, GLP_MAX);
+  if (lp.rows > 0) glp_add_rows(glpk.p, lp.rows);
+  glp_add_cols(glpk.p, lp.cols);
+  for (int r = 1; r <= lp.rows; ++r) glp_set_row_bnds(glpk.p, r, GLP_LO, -lp.gap[static_cast<std::size_t>(r - 1)], 0.0);
+  for (int c = 1; c <= lp.cols; ++c) {
+    if (lp.pinned[static_cast<std::size_t>(c - 1)]) {
+      glp_set_col_bnds(glpk.p, c, GLP_FX, 0.0, 0.0);
+    } else {
+      glp_set_col_bnds(glpk.p, c, GLP_DB, -lp.bound, lp.bound);
+    }
+    glp_set_obj_coef(glpk.p, c, beta[static_cast<std::size_t>(c - 1)]);
+  }
+  std::vector<int> ia{0}, ja{0};
+  std::vector<double> ar{0.0};
+  for (const auto& t : lp.entries) {
+    ia.push_back(t.col() + 1);
+    ja.push_back(t.row() + 1);
+    ar.push_back(t.value());
+  }
+  if (lp.rows > 0) glp_load_matrix(glpk.p, static_cast<int>(ar.size()) - 1, ia.data(), ja.data(), ar.data());
+  const int status = solve(glpk.p);
+  if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: load LP status {}", status));
+  std::vector<double> x(static_cast<std::size_t>(lp.cols));
+  for (int c = 1; c <= lp.cols; ++c) x[static_cast<std::size_t>(c - 1)] = glp_get_col_prim(glpk.p, c);
+  return x;
+}
+#endif
+
+// Force form (seed eq. 4.12 with the box): min h.f + X 1.(g + k) s.t. A f - g + k = -beta, f, g, k >= 0,
+// over the free coordinates; the displacements are x = -y.
+std::vector<double> solveLoadInteriorPoint(const LoadLp& lp, const std::vector<double>& beta, int& iterations) {
+  std::vector<int> freeIndex(static_cast<std::size_t>(lp.cols), -1);
+  int m = 0;
+  for (int c = 0; c < lp.cols; ++c) {
+    if (!lp.pinned[static_cast<std::size_t>(c)]) freeIndex[static_cast<std::size_t>(c)] = m++;
+  }
+  const int n = lp.rows + 2 * m;
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(lp.entries.size() + 2 * static_cast<std::size_t>(m));
+  for (const auto& e : lp.entries) {
+    const int f = freeIndex[static_cast<std::size_t>(e.row())];
+    if (f >= 0) t.emplace_back(f, e.col(), e.value());
+  }
+  for (int f = 0; f < m; ++f) {
+    t.emplace_back(f, lp.rows + f, -1.0);
+    t.emplace_back(f, lp.rows + m + f, 1.0);
+  }
+  Eigen::SparseMatrix<double> e(m, n);
+  e.setFromTriplets(t.begin(), t.end());
+  Eigen::VectorXd r(m), cost(n);
+  for (int c = 0; c < lp.cols; ++c) {
+    const int f = freeIndex[static_cast<std::size_t>(c)];
+    if (f >= 0) r[f] = -beta[static_cast<std::size_t>(c)];
+  }
+  for (int k = 0; k < lp.rows; ++k) cost[k] = lp.gap[static_cast<std::size_t>(k)];
+  cost.tail(2 * m).setConstant(lp.bound);
+  InteriorPointOptions ipOptions;
+  ipOptions.trace = std::getenv("POLYDEM_IP_TRACE") != nullptr;
+  const InteriorPointResult ip = solveStandardFormLp(e, r, cost, ipOptions);
+  if (!ip.converged) throw SimulationError(fmt::format("jamming test: interior-point load LP: {}", ip.message));
+  iterations += ip.iterations;
+  std::vector<double> x(static_cast<std::size_t>(lp.cols), 0.0);
+  for (int c = 0; c < lp.cols; ++c) {
+    const int f = freeIndex[static_cast<std::size_t>(c)];
+    if (f >= 0) x[static_cast<std::size_t>(c)] = -ip.y[f];
+  }
+  return x;
+}
+
+}  // namespace
 
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options) {
@@ -240,6 +357,23 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   }
   result.constraints = rows;
   const int cols = 3 * static_cast<int>(movable.size());
+  LoadLp lp;
+  lp.cols = cols;
+  lp.rows = rows;
+  lp.gap = gap;
+  lp.bound = options.maxDisplacement;
+  lp.pinned.assign(static_cast<std::size_t>(cols), 0);
+  for (int k = 0; k < 3; ++k) {  // one backbone sphere is pinned against the trivial translations (periodic axes only)
+    if (box.periodic(k)) lp.pinned[static_cast<std::size_t>(3 * firstLoaded + k)] = 1;
+  }
+  for (std::size_t e = 1; e < ar.size(); ++e) lp.entries.emplace_back(ja[e] - 1, ia[e] - 1, ar[e]);
+  const bool useSimplex = options.solver == LpSolver::Simplex ||
+                          (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
+                           static_cast<Index>(movable.size()) <= kSimplexLimit);
+#if !POLYDEM_EDMD_WITH_GLPK
+  if (useSimplex) throw ConfigError("the simplex jamming test needs GLPK (libglpk-dev), which this build did not find");
+#endif
+  int ipIterations = 0;
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal;
   double worst = -1.0;
@@ -256,30 +390,19 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
     }
     for (double sign : {1.0, -1.0}) {
-      Lp lp;
-      glp_set_obj_dir(lp.p, GLP_MAX);
-      if (rows > 0) glp_add_rows(lp.p, rows);
-      glp_add_cols(lp.p, cols);
-      for (int r = 1; r <= rows; ++r) glp_set_row_bnds(lp.p, r, GLP_LO, -gap[static_cast<std::size_t>(r - 1)], 0.0);
-      for (int c = 1; c <= cols; ++c) {
-        // One backbone sphere is pinned against the trivial translations (periodic axes only).
-        const bool pinned = (c - 1) / 3 == firstLoaded && box.periodic((c - 1) % 3);
-        if (pinned) {
-          glp_set_col_bnds(lp.p, c, GLP_FX, 0.0, 0.0);
-        } else {
-          glp_set_col_bnds(lp.p, c, GLP_DB, -options.maxDisplacement, options.maxDisplacement);
-        }
-        glp_set_obj_coef(lp.p, c, sign * b[static_cast<std::size_t>(c - 1)]);
-      }
-      if (rows > 0) glp_load_matrix(lp.p, static_cast<int>(ar.size()) - 1, ia.data(), ja.data(), ar.data());
-      const int status = solve(lp.p);
-      if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: load LP status {}", status));
+      std::vector<double> beta(b.size());
+      for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
+#if POLYDEM_EDMD_WITH_GLPK
+      const std::vector<double> x = useSimplex ? solveLoadSimplex(lp, beta) : solveLoadInteriorPoint(lp, beta, ipIterations);
+#else
+      const std::vector<double> x = solveLoadInteriorPoint(lp, beta, ipIterations);
+#endif
       double largest = 0.0;
       Index displaced = 0;
       Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
       for (std::size_t m = 0; m < movable.size(); ++m) {
         Eigen::Vector3d dr;
-        for (int k = 0; k < 3; ++k) dr[k] = glp_get_col_prim(lp.p, static_cast<int>(3 * m) + k + 1);
+        for (int k = 0; k < 3; ++k) dr[k] = x[3 * m + static_cast<std::size_t>(k)];
         motion.col(movable[m]) = dr * diameter;
         if (!loaded[m]) continue;  // rattlers may wander in their cages
         largest = std::max(largest, dr.norm());
@@ -299,20 +422,13 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
                                   options.displacementLimit, 2 * options.loads)
                     : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
                                   result.displaced, options.displacementLimit, worst);
+  result.solver = useSimplex ? std::string("GLPK simplex")
+                             : fmt::format("interior point ({}, {} iterations over {} LPs)",
+                                           interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
+                                           ipIterations, 2 * options.loads);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 
-#else
-
-LoadTestResult testJammingUnderLoad(const SphereView&, const Box&, const ContactNetwork&, const LoadTestOptions&) {
-  throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
-}
-
-JammingTestResult testCollectiveJamming(const SphereView&, const Box&, const ContactNetwork&, double, std::uint64_t) {
-  throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
-}
-
-#endif
 
 }  // namespace polydem::edmd

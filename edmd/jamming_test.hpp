@@ -40,6 +40,13 @@ struct JammingTestResult {
 /// max B . dR over |dR_k| <= maxDisplacement, then -B. The packing is jammed if
 /// no sphere moves by more than `displacementLimit` under `loads` loads and their opposites. Lengths in
 /// units of the mean diameter.
+enum class LpSolver {
+  Automatic,      ///< GLPK's simplex up to kSimplexLimit movable spheres (if built with GLPK), else interior point
+  Simplex,        ///< GLPK's simplex (exact vertex; minutes at N = 1000, does not finish at N = 10,000)
+  InteriorPoint,  ///< edmd/interior_point.hpp on the force form (about a minute per load at N = 10,000)
+};
+inline constexpr int kSimplexLimit = 2000;
+
 struct LoadTestOptions {
   double gapTolerance = 0.05;
   double displacementLimit = 1e-3;
@@ -47,6 +54,7 @@ struct LoadTestOptions {
   int loads = 2;
   std::uint64_t seed = 1;
   std::vector<Index> removed;  ///< spheres taken out of the packing for the test (no variables, no constraints)
+  LpSolver solver = LpSolver::Automatic;
 };
 struct LoadTestResult {
   bool jammed = false;
@@ -56,11 +64,13 @@ struct LoadTestResult {
   Index constraints = 0;
   Eigen::Matrix3Xd motion;  ///< the worst load's displacement (3 x N, length units)
   double seconds = 0.0;
+  std::string solver;        ///< which LP solver ran, with its iteration counts
 };
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options = {});
 
-/// True if this build has GLPK.
+/// True if this build has GLPK (the ideal-contact test and the simplex load test; the interior-point
+/// load test is always built).
 bool jammingTestAvailable();
 
 /// Run the test on the backbone of `network` (spheres as analysed). `tolerance` is the relative size of

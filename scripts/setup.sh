@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   cmake g++ make pkg-config
-  libeigen3-dev libcgal-dev libhdf5-dev libglpk-dev
+  libeigen3-dev libcgal-dev libhdf5-dev libglpk-dev libsuitesparse-dev libopenblas0-pthread
   libcli11-dev libtomlplusplus-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox

@@ -41,6 +41,7 @@ struct AnalyzeOptions {
   double loadGap = 0.05;
   double displacementLimit = 1e-3;
   int loads = 2;
+  std::string lpSolver = "auto";
   bool skipIdeal = false;
   bool structureOnly = false;
   bool order = false;
@@ -186,6 +187,11 @@ Runner addAnalyze(CLI::App& app) {
                   "--certify: a load moving a sphere further than this (mean diameters) unjams")
       ->capture_default_str();
   cmd->add_option("--loads", opt->loads, "--certify: random loads (each also applied reversed)")->capture_default_str();
+  cmd->add_option("--lp-solver", opt->lpSolver,
+                  "--certify: load-test LP solver: simplex (GLPK), interior (own interior point with CHOLMOD), "
+                  "auto = simplex up to 2000 spheres")
+      ->check(CLI::IsMember({"auto", "simplex", "interior"}))
+      ->capture_default_str();
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd->add_option("--motion-csv", opt->motionCsv, "write the unjamming motion (i,dx,dy,dz) if one is found");
   cmd->add_flag("--structure-only", opt->structureOnly,
@@ -301,10 +307,13 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.gapTolerance = opt->loadGap;
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
+      loadOptions.solver = opt->lpSolver == "simplex"    ? edmd::LpSolver::Simplex
+                           : opt->lpSolver == "interior" ? edmd::LpSolver::InteriorPoint
+                                                         : edmd::LpSolver::Automatic;
       if (opt->removeSphere >= 0) loadOptions.removed.push_back(opt->removeSphere);
       const edmd::LoadTestResult jam = edmd::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
-      fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {:.2f} s)\n", jam.verdict,
-                 jam.constraints, loadOptions.gapTolerance, jam.seconds);
+      fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {}, {:.2f} s)\n",
+                 jam.verdict, jam.constraints, loadOptions.gapTolerance, jam.solver, jam.seconds);
       if (!jam.jammed && !opt->motionCsv.empty()) {
         std::FILE* f = std::fopen(opt->motionCsv.c_str(), "w");
         if (!f) throw InputError(fmt::format("{}: cannot open for writing", opt->motionCsv));

@@ -84,6 +84,17 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   const LoadTestResult unjammed = testJammingUnderLoad(spheres, r.box, r.net, holed);
   EXPECT_FALSE(unjammed.jammed) << unjammed.verdict;
   EXPECT_GT(unjammed.displaced, 0);
+  // The interior-point solver (the one large packings use) reaches the same optimum: a random load has a
+  // unique optimal vertex, so the largest backbone displacement agrees with the simplex's.
+  LoadTestOptions interior;
+  interior.solver = LpSolver::InteriorPoint;
+  const LoadTestResult jammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
+  EXPECT_TRUE(jammedIp.jammed) << jammedIp.verdict;
+  EXPECT_NEAR(jammedIp.largestDisplacement, jammed.largestDisplacement, 1e-6 + 1e-4 * jammed.largestDisplacement);
+  interior.removed = holed.removed;
+  const LoadTestResult unjammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
+  EXPECT_FALSE(unjammedIp.jammed) << unjammedIp.verdict;
+  EXPECT_GT(unjammedIp.displaced, 0);
 }
 
 TEST(Compression, SmallBidispersePackingJams) {

@@ -1,0 +1,176 @@
+#include "edmd/interior_point.hpp"
+
+#include <fmt/format.h>
+
+#include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+
+#include "core/errors.hpp"
+
+#if POLYDEM_EDMD_WITH_CHOLMOD
+#include <Eigen/CholmodSupport>
+#endif
+
+namespace polydem::edmd {
+
+namespace {
+
+using SparseMatrix = Eigen::SparseMatrix<double>;
+#if POLYDEM_EDMD_WITH_CHOLMOD
+using Cholesky = Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>;
+#else
+using Cholesky = Eigen::SimplicialLLT<SparseMatrix, Eigen::Lower>;
+#endif
+
+// Largest alpha in (0, 1] with v + alpha dv >= 0.
+double maxStep(const Eigen::VectorXd& v, const Eigen::VectorXd& dv) {
+  double alpha = 1.0;
+  for (Eigen::Index i = 0; i < v.size(); ++i) {
+    if (dv[i] < 0.0) alpha = std::min(alpha, -v[i] / dv[i]);
+  }
+  return alpha;
+}
+
+// Normal matrix E diag(d) E^T + delta I. The pattern is the same for every d > 0, so the symbolic
+// analysis is done once.
+SparseMatrix normalMatrix(const SparseMatrix& e, const SparseMatrix& et, const Eigen::VectorXd& d, double delta) {
+  SparseMatrix k = e * d.asDiagonal() * et;
+  for (Eigen::Index i = 0; i < k.rows(); ++i) k.coeffRef(i, i) += delta;
+  return k;
+}
+
+}  // namespace
+
+bool interiorPointUsesCholmod() { return POLYDEM_EDMD_WITH_CHOLMOD != 0; }
+
+InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::VectorXd& r, const Eigen::VectorXd& c,
+                                        const InteriorPointOptions& options) {
+  const Eigen::Index m = e.rows(), n = e.cols();
+  if (r.size() != m || c.size() != n) {
+    throw SimulationError(fmt::format("interior point: E is {} x {}, r has {} and c {} entries", m, n, r.size(),
+                                      c.size()));
+  }
+  InteriorPointResult out;
+  double factorSeconds = 0.0;
+  const SparseMatrix et = e.transpose();
+  Cholesky cholesky;
+  // Factorise E D E^T; a matrix that round-off made indefinite (D spans ~20 decades near the optimum)
+  // gets a growing multiple of the identity, which only damps the Newton step.
+  double delta = 0.0;  // the last shift used (reported)
+  auto factorise = [&](const Eigen::VectorXd& d) {
+    const auto start = std::chrono::steady_clock::now();
+    SparseMatrix k = normalMatrix(e, et, d, 0.0);
+    const double scale = k.diagonal().maxCoeff();
+    double shift = 0.0;
+    bool ok = false;
+    for (int attempt = 0; attempt < 8 && !ok; ++attempt) {
+      if (attempt > 0) {
+        const double next = attempt == 1 ? 1e-14 * scale : shift * 100.0;
+        for (Eigen::Index i = 0; i < k.rows(); ++i) k.coeffRef(i, i) += next - shift;
+        shift = next;
+      }
+      cholesky.factorize(k);
+      ok = cholesky.info() == Eigen::Success;
+    }
+    delta = shift;
+    factorSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return ok;
+  };
+
+  // Mehrotra's starting point: least-norm z with E z = r and least-squares s = c - E^T y, shifted positive.
+  Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
+  cholesky.analyzePattern(normalMatrix(e, et, ones, 0.0));
+  if (!factorise(ones)) {
+    out.message = "E E^T is not positive definite (E lacks full row rank)";
+    return out;
+  }
+  Eigen::VectorXd y = cholesky.solve(e * c);
+  Eigen::VectorXd s = c - et * y;
+  Eigen::VectorXd z = et * cholesky.solve(r);
+  z.array() += std::max(-1.5 * z.minCoeff(), 0.0);
+  s.array() += std::max(-1.5 * s.minCoeff(), 0.0);
+  {
+    const double zs = std::max(z.dot(s), 1e-12);
+    z.array() += 0.5 * zs / std::max(s.sum(), 1e-12);
+    s.array() += 0.5 * zs / std::max(z.sum(), 1e-12);
+    // Degenerate data (c = 0 or r = 0) can leave zeros.
+    z = z.cwiseMax(1e-8);
+    s = s.cwiseMax(1e-8);
+  }
+
+  const double rNorm = 1.0 + r.norm(), cNorm = 1.0 + c.norm();
+  const double nd = static_cast<double>(n);
+  Eigen::VectorXd d(n), rhs(m), dy(m), ds(n), dz(n), rc(n), dzAff(n), dsAff(n);
+  for (int iteration = 0; iteration < options.maxIterations; ++iteration) {
+    const Eigen::VectorXd rp = r - e * z;
+    const Eigen::VectorXd rd = c - et * y - s;
+    const double mu = z.dot(s) / nd;
+    out.primalObjective = c.dot(z);
+    out.dualObjective = r.dot(y);
+    out.primalResidual = rp.norm() / rNorm;
+    out.dualResidual = rd.norm() / cNorm;
+    out.iterations = iteration;
+    const double gap = std::abs(out.primalObjective - out.dualObjective) / (1.0 + std::abs(out.primalObjective));
+    if (options.trace) {
+      fmt::print(stderr, "ip {:3d}  primal {:.6e}  dual {:.6e}  rp {:.2e}  rd {:.2e}  gap {:.2e}  mu {:.2e}  delta {:.1e}\n",
+                 iteration, out.primalObjective, out.dualObjective, out.primalResidual, out.dualResidual, gap, mu,
+                 delta);
+    }
+    if (out.primalResidual < options.primalTolerance && out.dualResidual < options.tolerance &&
+        gap < options.tolerance) {
+      out.converged = true;
+      out.message = fmt::format("converged in {} iterations", iteration);
+      break;
+    }
+    if (!std::isfinite(mu)) {
+      out.message = fmt::format("diverged at iteration {}", iteration);
+      break;
+    }
+    d = z.cwiseQuotient(s);
+    if (!factorise(d)) {
+      out.message = fmt::format("normal matrix not positive definite at iteration {}", iteration);
+      break;
+    }
+    // K dy = rp + E (d rd - rc / s);  ds = rd - E^T dy;  dz = rc / s - d ds.
+    auto newton = [&](const Eigen::VectorXd& rcv) {
+      rhs = rp + e * (d.cwiseProduct(rd) - rcv.cwiseQuotient(s));
+      dy = cholesky.solve(rhs);
+      ds = rd - et * dy;
+      dz = rcv.cwiseQuotient(s) - d.cwiseProduct(ds);
+    };
+    rc = -z.cwiseProduct(s);
+    newton(rc);
+    const double alphaPAff = maxStep(z, dz), alphaDAff = maxStep(s, ds);
+    const double muAff = (z + alphaPAff * dz).dot(s + alphaDAff * ds) / nd;
+    const double sigma = std::pow(std::clamp(muAff / mu, 0.0, 1.0), 3);
+    dzAff = dz;
+    dsAff = ds;
+    rc.array() += sigma * mu - dzAff.cwiseProduct(dsAff).array();
+    newton(rc);
+    constexpr double kEta = 0.995;
+    const double alphaP = std::min(1.0, kEta * maxStep(z, dz) / 1.0);
+    const double alphaD = std::min(1.0, kEta * maxStep(s, ds) / 1.0);
+    if (options.trace) {
+      fmt::print(stderr, "     alphaAff {:.3f} {:.3f}  sigma {:.2e}  alpha {:.3f} {:.3f}\n", alphaPAff, alphaDAff, sigma,
+                 alphaP, alphaD);
+    }
+    z += alphaP * dz;
+    y += alphaD * dy;
+    s += alphaD * ds;
+  }
+  if (!out.converged && out.message.empty()) {
+    out.message = fmt::format("no convergence in {} iterations", options.maxIterations);
+  }
+  out.z = std::move(z);
+  out.y = std::move(y);
+  out.s = std::move(s);
+  out.factorSeconds = factorSeconds;
+  return out;
+}
+
+}  // namespace polydem::edmd
