@@ -59,6 +59,9 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
   double factorSeconds = 0.0;
   const SparseMatrix et = e.transpose();
   Cholesky cholesky;
+#if POLYDEM_EDMD_WITH_CHOLMOD
+  cholesky.cholmod().print = 0;  // an indefinite matrix is handled below (shifted retry); no warning lines
+#endif
   // Factorise E D E^T; a matrix that round-off made indefinite (D spans ~20 decades near the optimum)
   // gets a growing multiple of the identity, which only damps the Newton step.
   double delta = 0.0;  // the last shift used (reported)
@@ -106,6 +109,23 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
   const double rNorm = 1.0 + r.norm(), cNorm = 1.0 + c.norm();
   const double nd = static_cast<double>(n);
   Eigen::VectorXd d(n), rhs(m), dy(m), ds(n), dz(n), rc(n), dzAff(n), dsAff(n);
+  // The best iterate by the worst of the three criteria relative to its tolerance: past the optimum the
+  // round-off in the solves can make the primal residual grow again, and the best point is returned.
+  InteriorPointResult best;
+  double bestMerit = std::numeric_limits<double>::infinity();
+  int sinceBest = 0;
+  auto keepBest = [&](double merit) {
+    if (merit < bestMerit) {
+      bestMerit = merit;
+      best = out;
+      best.z = z;
+      best.y = y;
+      best.s = s;
+      sinceBest = 0;
+    } else {
+      ++sinceBest;
+    }
+  };
   for (int iteration = 0; iteration < options.maxIterations; ++iteration) {
     const Eigen::VectorXd rp = r - e * z;
     const Eigen::VectorXd rd = c - et * y - s;
@@ -121,10 +141,16 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
                  iteration, out.primalObjective, out.dualObjective, out.primalResidual, out.dualResidual, gap, mu,
                  delta);
     }
-    if (out.primalResidual < options.primalTolerance && out.dualResidual < options.tolerance &&
-        gap < options.tolerance) {
+    const double merit = std::max({out.primalResidual / options.primalTolerance,
+                                   out.dualResidual / options.tolerance, gap / options.tolerance});
+    keepBest(merit);
+    if (merit <= 1.0) {
       out.converged = true;
       out.message = fmt::format("converged in {} iterations", iteration);
+      break;
+    }
+    if (sinceBest >= options.stallIterations) {
+      out.message = fmt::format("stalled at iteration {}", iteration);
       break;
     }
     if (!std::isfinite(mu)) {
@@ -163,12 +189,23 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     y += alphaD * dy;
     s += alphaD * ds;
   }
-  if (!out.converged && out.message.empty()) {
-    out.message = fmt::format("no convergence in {} iterations", options.maxIterations);
+  if (out.converged) {
+    out.z = std::move(z);
+    out.y = std::move(y);
+    out.s = std::move(s);
+  } else {
+    const std::string why = out.message.empty() ? fmt::format("no convergence in {} iterations", options.maxIterations)
+                                                : out.message;
+    const int iterations = out.iterations;
+    out = std::move(best);
+    out.converged = false;
+    out.message = fmt::format("{}; best iterate (iteration {}): primal residual {:.1e}, dual residual {:.1e}, gap "
+                              "{:.1e}",
+                              why, out.iterations, out.primalResidual, out.dualResidual,
+                              std::abs(out.primalObjective - out.dualObjective) /
+                                  (1.0 + std::abs(out.primalObjective)));
+    out.iterations = iterations;
   }
-  out.z = std::move(z);
-  out.y = std::move(y);
-  out.s = std::move(s);
   out.factorSeconds = factorSeconds;
   return out;
 }

@@ -22,7 +22,9 @@ namespace polydem::edmd {
 
 struct InteriorPointOptions {
   double tolerance = 1e-9;         ///< |E^T y + s - c| / (1 + |c|) and |c.z - r.y| / (1 + |c.z|)
-  double primalTolerance = 1e-7;   ///< |E z - r| / (1 + |r|): the Cholesky solves limit it to ~1e-9 here
+  double primalTolerance = 1e-6;   ///< |E z - r| / (1 + |r|): near the optimum the normal matrix spans ~20
+                                   ///< decades and the solves limit it to ~1e-9..1e-6 on jamming LPs
+  int stallIterations = 15;        ///< stop after this many iterations without a better iterate (the best is returned)
   int maxIterations = 200;
   bool trace = false;  ///< one line per iteration on stderr
 };

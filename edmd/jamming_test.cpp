@@ -273,7 +273,12 @@ std::vector<double> solveLoadInteriorPoint(const LoadLp& lp, const std::vector<d
   InteriorPointOptions ipOptions;
   ipOptions.trace = std::getenv("POLYDEM_IP_TRACE") != nullptr;
   const InteriorPointResult ip = solveStandardFormLp(e, r, cost, ipOptions);
-  if (!ip.converged) throw SimulationError(fmt::format("jamming test: interior-point load LP: {}", ip.message));
+  // The displacements are the dual iterate: usable when it is feasible (small dual residual) and its value
+  // is close to the primal bound, even if the force balance (primal residual) stalled above tolerance.
+  const double gap = std::abs(ip.primalObjective - ip.dualObjective) / (1.0 + std::abs(ip.primalObjective));
+  if (!ip.converged && !(ip.dualResidual < 1e-8 && gap < 1e-6)) {
+    throw SimulationError(fmt::format("jamming test: interior-point load LP: {}", ip.message));
+  }
   iterations += ip.iterations;
   std::vector<double> x(static_cast<std::size_t>(lp.cols), 0.0);
   for (int c = 0; c < lp.cols; ++c) {
