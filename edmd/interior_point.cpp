@@ -149,7 +149,9 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
       out.message = fmt::format("converged in {} iterations", iteration);
       break;
     }
-    if (sinceBest >= options.stallIterations) {
+    // Far from the optimum the merit can rise for a while (infeasibility traded for centrality): only a
+    // stall near convergence stops the method.
+    if (sinceBest >= options.stallIterations && bestMerit < 1e4) {
       out.message = fmt::format("stalled at iteration {}", iteration);
       break;
     }
