@@ -310,12 +310,10 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   std::vector<int> slot(static_cast<std::size_t>(n), -1);
   std::vector<Index> movable;
   std::vector<char> loaded;
-  int firstLoaded = -1;
   for (Index i = 0; i < n; ++i) {
     if (removed[static_cast<std::size_t>(i)]) continue;
     slot[static_cast<std::size_t>(i)] = static_cast<int>(movable.size());
     const bool backbone = !network.rattler[static_cast<std::size_t>(i)];
-    if (backbone && firstLoaded < 0) firstLoaded = static_cast<int>(movable.size());
     movable.push_back(i);
     loaded.push_back(backbone ? 1 : 0);
   }
@@ -367,10 +365,6 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   lp.rows = rows;
   lp.gap = gap;
   lp.bound = options.maxDisplacement;
-  lp.pinned.assign(static_cast<std::size_t>(cols), 0);
-  for (int k = 0; k < 3; ++k) {  // one backbone sphere is pinned against the trivial translations (periodic axes only)
-    if (box.periodic(k)) lp.pinned[static_cast<std::size_t>(3 * firstLoaded + k)] = 1;
-  }
   for (std::size_t e = 1; e < ar.size(); ++e) lp.entries.emplace_back(ja[e] - 1, ia[e] - 1, ar[e]);
   const bool useSimplex = options.solver == LpSolver::Simplex ||
                           (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
@@ -379,58 +373,111 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   if (useSimplex) throw ConfigError("the simplex jamming test needs GLPK (libglpk-dev), which this build did not find");
 #endif
   int ipIterations = 0;
+  int lps = 0;
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal;
-  double worst = -1.0;
-  for (int load = 0; load < options.loads; ++load) {
-    std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (int c = 0; c < cols; ++c) {
-      if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
-      b[static_cast<std::size_t>(c)] = normal(rng);
-      mean[c % 3] += b[static_cast<std::size_t>(c)];
+  // Rounds of the seed's Algorithm 13 (:5621-5648): spheres a load displaces beyond the limit are set
+  // aside (unloaded, like rattlers, but they keep their constraints, :5713-5725) and the rest is loaded
+  // again, until a round displaces nobody: that remainder is a jammed subpacking (:4242-4256). Round 1
+  // decides the packing as a whole and gives its unjamming motion.
+  Index loose = 0;
+  for (int round = 1; round <= std::max(1, options.subpackingRounds); ++round) {
+    const std::int64_t loadedCount = std::count(loaded.begin(), loaded.end(), 1);
+    if (loadedCount < 2) break;
+    int pinnedSphere = -1;
+    for (std::size_t m = 0; m < movable.size() && pinnedSphere < 0; ++m) {
+      if (loaded[m]) pinnedSphere = static_cast<int>(m);
     }
-    mean /= static_cast<double>(backboneCount);
-    for (int c = 0; c < cols; ++c) {
-      if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
+    lp.pinned.assign(static_cast<std::size_t>(cols), 0);
+    for (int k = 0; k < 3; ++k) {
+      if (box.periodic(k)) lp.pinned[static_cast<std::size_t>(3 * pinnedSphere + k)] = 1;
     }
-    for (double sign : {1.0, -1.0}) {
-      std::vector<double> beta(b.size());
-      for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
+    double worst = -1.0;
+    Index worstDisplaced = 0;
+    Eigen::Matrix3Xd worstMotion;
+    std::vector<char> displacedNow(movable.size(), 0);
+    for (int load = 0; load < options.loads; ++load) {
+      std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int c = 0; c < cols; ++c) {
+        if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
+        b[static_cast<std::size_t>(c)] = normal(rng);
+        mean[c % 3] += b[static_cast<std::size_t>(c)];
+      }
+      mean /= static_cast<double>(loadedCount);
+      for (int c = 0; c < cols; ++c) {
+        if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
+      }
+      for (double sign : {1.0, -1.0}) {
+        std::vector<double> beta(b.size());
+        for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
+        ++lps;
 #if POLYDEM_EDMD_WITH_GLPK
-      const std::vector<double> x = useSimplex ? solveLoadSimplex(lp, beta) : solveLoadInteriorPoint(lp, beta, ipIterations);
+        const std::vector<double> x =
+            useSimplex ? solveLoadSimplex(lp, beta) : solveLoadInteriorPoint(lp, beta, ipIterations);
 #else
-      const std::vector<double> x = solveLoadInteriorPoint(lp, beta, ipIterations);
+        const std::vector<double> x = solveLoadInteriorPoint(lp, beta, ipIterations);
 #endif
-      double largest = 0.0;
-      Index displaced = 0;
-      Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
-      for (std::size_t m = 0; m < movable.size(); ++m) {
-        Eigen::Vector3d dr;
-        for (int k = 0; k < 3; ++k) dr[k] = x[3 * m + static_cast<std::size_t>(k)];
-        motion.col(movable[m]) = dr * diameter;
-        if (!loaded[m]) continue;  // rattlers may wander in their cages
-        largest = std::max(largest, dr.norm());
-        displaced += dr.norm() > options.displacementLimit ? 1 : 0;
+        double largest = 0.0;
+        Index displaced = 0;
+        Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
+        for (std::size_t m = 0; m < movable.size(); ++m) {
+          Eigen::Vector3d dr;
+          for (int k = 0; k < 3; ++k) dr[k] = x[3 * m + static_cast<std::size_t>(k)];
+          motion.col(movable[m]) = dr * diameter;
+          if (!loaded[m]) continue;  // rattlers may wander in their cages
+          largest = std::max(largest, dr.norm());
+          if (dr.norm() > options.displacementLimit) {
+            ++displaced;
+            displacedNow[m] = 1;
+          }
+        }
+        if (largest > worst) {
+          worst = largest;
+          worstDisplaced = displaced;
+          worstMotion = std::move(motion);
+        }
       }
-      if (largest > worst) {
-        worst = largest;
-        result.displaced = displaced;
-        result.motion = motion;
-      }
+    }
+    result.rounds = round;
+    if (round == 1) {
+      result.largestDisplacement = worst;
+      result.displaced = worstDisplaced;
+      result.motion = std::move(worstMotion);
+      result.jammed = worst <= options.displacementLimit;
+    }
+    const Index setAside = std::count(displacedNow.begin(), displacedNow.end(), 1);
+    if (setAside == 0) {
+      result.subpacking = static_cast<Index>(loadedCount);
+      result.subpackingJammed = true;
+      break;
+    }
+    loose += setAside;
+    for (std::size_t m = 0; m < movable.size(); ++m) {
+      if (displacedNow[m]) loaded[m] = 0;
     }
   }
-  result.largestDisplacement = worst;
-  result.jammed = worst <= options.displacementLimit;
+  result.loose = loose;
+  const Index backboneTested = static_cast<Index>(backboneCount);
   result.verdict =
       result.jammed ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
                                   options.displacementLimit, 2 * options.loads)
                     : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
-                                  result.displaced, options.displacementLimit, worst);
+                                  result.displaced, options.displacementLimit, result.largestDisplacement);
+  if (!result.jammed && options.subpackingRounds > 1) {
+    result.verdict +=
+        result.subpackingJammed
+            ? fmt::format("; jammed subpacking of {} of {} backbone spheres ({:.2f}%) after {} rounds ({} set aside)",
+                          result.subpacking, backboneTested, 100.0 * static_cast<double>(result.subpacking) /
+                                                                 static_cast<double>(backboneTested),
+                          result.rounds, loose)
+            : fmt::format("; no jammed subpacking found in {} rounds ({} of {} backbone spheres set aside)",
+                          result.rounds, loose, backboneTested);
+  }
   result.solver = useSimplex ? std::string("GLPK simplex")
                              : fmt::format("interior point ({}, {} iterations over {} LPs)",
                                            interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
-                                           ipIterations, 2 * options.loads);
+                                           ipIterations, lps);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

@@ -55,6 +55,9 @@ struct LoadTestOptions {
   std::uint64_t seed = 1;
   std::vector<Index> removed;  ///< spheres taken out of the packing for the test (no variables, no constraints)
   LpSolver solver = LpSolver::Automatic;
+  /// > 1: rounds of the seed's Algorithm 13 that set displaced spheres aside and load the rest again,
+  /// until a round displaces nobody (a jammed subpacking). 1 = test the packing as a whole only.
+  int subpackingRounds = 1;
 };
 struct LoadTestResult {
   bool jammed = false;
@@ -65,6 +68,10 @@ struct LoadTestResult {
   Eigen::Matrix3Xd motion;  ///< the worst load's displacement (3 x N, length units)
   double seconds = 0.0;
   std::string solver;        ///< which LP solver ran, with its iteration counts
+  int rounds = 0;            ///< rounds run (see LoadTestOptions::subpackingRounds)
+  Index loose = 0;           ///< backbone spheres set aside as displaced, over all rounds
+  Index subpacking = 0;      ///< loaded spheres of the last round, if it displaced nobody
+  bool subpackingJammed = false;  ///< a round displaced nobody (jammed == true implies it, with loose = 0)
 };
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options = {});

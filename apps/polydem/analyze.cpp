@@ -42,6 +42,7 @@ struct AnalyzeOptions {
   double displacementLimit = 1e-3;
   int loads = 2;
   std::string lpSolver = "auto";
+  int subpackingRounds = 1;
   bool skipIdeal = false;
   bool structureOnly = false;
   bool order = false;
@@ -192,6 +193,11 @@ Runner addAnalyze(CLI::App& app) {
                   "auto = simplex up to 2000 spheres")
       ->check(CLI::IsMember({"auto", "simplex", "interior"}))
       ->capture_default_str();
+  cmd->add_option("--subpacking-rounds", opt->subpackingRounds,
+                  "--certify: if the packing is unjammed, set the displaced spheres aside and load the rest again, up "
+                  "to this many rounds in all, to find a jammed subpacking (seed Algorithm 13)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd->add_option("--motion-csv", opt->motionCsv, "write the unjamming motion (i,dx,dy,dz) if one is found");
   cmd->add_flag("--structure-only", opt->structureOnly,
@@ -307,6 +313,7 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.gapTolerance = opt->loadGap;
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
+      loadOptions.subpackingRounds = opt->subpackingRounds;
       loadOptions.solver = opt->lpSolver == "simplex"    ? edmd::LpSolver::Simplex
                            : opt->lpSolver == "interior" ? edmd::LpSolver::InteriorPoint
                                                          : edmd::LpSolver::Automatic;

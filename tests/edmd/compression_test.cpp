@@ -95,6 +95,26 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   const LoadTestResult unjammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
   EXPECT_FALSE(unjammedIp.jammed) << unjammedIp.verdict;
   EXPECT_GT(unjammedIp.displaced, 0);
+  // Subpacking rounds (seed Algorithm 13): the intact packing needs one round; the holed one sets its
+  // displaced spheres aside round by round, and a jammed remainder plus the set-aside spheres is the backbone.
+  LoadTestOptions rounds;
+  rounds.subpackingRounds = 6;
+  const LoadTestResult intact = testJammingUnderLoad(spheres, r.box, r.net, rounds);
+  EXPECT_TRUE(intact.jammed && intact.subpackingJammed) << intact.verdict;
+  EXPECT_EQ(intact.rounds, 1);
+  EXPECT_EQ(intact.loose, 0);
+  rounds.removed = holed.removed;
+  const LoadTestResult holedRounds = testJammingUnderLoad(spheres, r.box, r.net, rounds);
+  EXPECT_FALSE(holedRounds.jammed) << holedRounds.verdict;
+  EXPECT_EQ(holedRounds.displaced, unjammed.displaced);  // round 1 is the plain test
+  EXPECT_GE(holedRounds.loose, unjammed.displaced);
+  // Either a jammed remainder, which with the set-aside spheres makes up the tested backbone, or every
+  // backbone sphere was displaced at some round (in 200 spheres a hole unjams nearly everything).
+  if (holedRounds.subpackingJammed) {
+    EXPECT_EQ(holedRounds.subpacking + holedRounds.loose, r.net.backbone - 1);
+  } else {
+    EXPECT_GE(holedRounds.loose, r.net.backbone - 1 - 1) << holedRounds.verdict;
+  }
 }
 
 TEST(Compression, SmallBidispersePackingJams) {
