@@ -180,12 +180,42 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     dsAff = ds;
     rc.array() += sigma * mu - dzAff.cwiseProduct(dsAff).array();
     newton(rc);
+    // Gondzio's centrality correctors (J. Gondzio, Comput. Optim. Appl. 6, 137 (1996)): aim at longer
+    // steps by pulling the complementarity products of the trial point into [0.1, 10] x the target;
+    // each costs one solve with the same factor (~3% of a factorisation here). Accepted while they
+    // lengthen the step.
+    double stepP = maxStep(z, dz), stepD = maxStep(s, ds);
+    int correctors = 0;
+    for (int k = 0; k < options.centralityCorrectors; ++k) {
+      const double target = sigma * mu;
+      const double trialP = std::min(1.0, 1.5 * stepP + 0.1), trialD = std::min(1.0, 1.5 * stepD + 0.1);
+      const Eigen::VectorXd v = (z + trialP * dz).cwiseProduct(s + trialD * ds);
+      Eigen::VectorXd corr(n);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        corr[i] = std::clamp(v[i], 0.1 * target, 10.0 * target) - v[i];
+        corr[i] = std::max(corr[i], -10.0 * target);
+      }
+      // Newton step for the correction alone (zero residuals): K dy = -E (corr / s).
+      const Eigen::VectorXd corrOverS = corr.cwiseQuotient(s);
+      const Eigen::VectorXd dyc = cholesky.solve(Eigen::VectorXd(-(e * corrOverS)));
+      const Eigen::VectorXd dsc = -(et * dyc);
+      const Eigen::VectorXd dzc = corrOverS - d.cwiseProduct(dsc);
+      const Eigen::VectorXd dzNew = dz + dzc, dsNew = ds + dsc;
+      const double newP = maxStep(z, dzNew), newD = maxStep(s, dsNew);
+      if (std::min(newP, newD) < 1.01 * std::min(stepP, stepD) + 0.01) break;
+      dz = dzNew;
+      ds = dsNew;
+      dy += dyc;
+      stepP = newP;
+      stepD = newD;
+      ++correctors;
+    }
     constexpr double kEta = 0.995;
-    const double alphaP = std::min(1.0, kEta * maxStep(z, dz) / 1.0);
-    const double alphaD = std::min(1.0, kEta * maxStep(s, ds) / 1.0);
+    const double alphaP = std::min(1.0, kEta * stepP);
+    const double alphaD = std::min(1.0, kEta * stepD);
     if (options.trace) {
-      fmt::print(stderr, "     alphaAff {:.3f} {:.3f}  sigma {:.2e}  alpha {:.3f} {:.3f}\n", alphaPAff, alphaDAff, sigma,
-                 alphaP, alphaD);
+      fmt::print(stderr, "     alphaAff {:.3f} {:.3f}  sigma {:.2e}  correctors {}  alpha {:.3f} {:.3f}\n", alphaPAff,
+                 alphaDAff, sigma, correctors, alphaP, alphaD);
     }
     z += alphaP * dz;
     y += alphaD * dy;

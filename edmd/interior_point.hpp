@@ -26,6 +26,7 @@ struct InteriorPointOptions {
                                    ///< decades and the solves limit it to ~1e-9..1e-6 on jamming LPs
   int stallIterations = 15;        ///< stop after this many iterations without a better iterate (the best is returned)
   int maxIterations = 200;
+  int centralityCorrectors = 2;    ///< Gondzio correctors per iteration (0 = plain Mehrotra)
   bool trace = false;  ///< one line per iteration on stderr
 };
 
