@@ -46,6 +46,21 @@ SparseMatrix normalMatrix(const SparseMatrix& e, const SparseMatrix& et, const E
 
 }  // namespace
 
+struct SpdSolver::Impl {
+  Cholesky cholesky;
+};
+SpdSolver::SpdSolver() : impl_(new Impl) {
+#if POLYDEM_EDMD_WITH_CHOLMOD
+  impl_->cholesky.cholmod().print = 0;
+#endif
+}
+SpdSolver::~SpdSolver() { delete impl_; }
+bool SpdSolver::factor(const SparseMatrix& k) {
+  impl_->cholesky.compute(k);
+  return impl_->cholesky.info() == Eigen::Success;
+}
+Eigen::VectorXd SpdSolver::solve(const Eigen::VectorXd& b) const { return impl_->cholesky.solve(b); }
+
 bool interiorPointUsesCholmod() { return POLYDEM_EDMD_WITH_CHOLMOD != 0; }
 
 InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::VectorXd& r, const Eigen::VectorXd& c,

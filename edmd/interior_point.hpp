@@ -48,6 +48,22 @@ struct InteriorPointResult {
 /// factorisation, ~5-20x slower on 3D contact networks.
 bool interiorPointUsesCholmod();
 
+/// Sparse symmetric positive definite solver with the same Cholesky as the interior point.
+class SpdSolver {
+ public:
+  SpdSolver();
+  ~SpdSolver();
+  SpdSolver(const SpdSolver&) = delete;
+  SpdSolver& operator=(const SpdSolver&) = delete;
+  /// Factor k (full symmetric storage); false if it is not numerically positive definite.
+  bool factor(const Eigen::SparseMatrix<double>& k);
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+
+ private:
+  struct Impl;
+  Impl* impl_;
+};
+
 /// Solve min c.z s.t. E z = r, z >= 0 (E: m x n, full row rank). Throws SimulationError on size mismatch.
 InteriorPointResult solveStandardFormLp(const Eigen::SparseMatrix<double>& e, const Eigen::VectorXd& r,
                                         const Eigen::VectorXd& c, const InteriorPointOptions& options = {});

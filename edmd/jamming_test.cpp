@@ -51,10 +51,95 @@ int solve(glp_prob* p) {
   return glp_get_status(p);
 }
 
+
+// LP-free certificate for isostatic or hyperstatic backbones (digest §3.4 [R]; seed eq. 9.5, :11339-11351,
+// and :7079-7104): with one sphere pinned, the rigidity matrix A (free coordinates x contacts) has full
+// row rank iff K = A A^T is positive definite (no floppy modes), and then f = 1 - A^T K^-1 A 1 is the
+// projection of the all-ones vector onto the self-stresses (A f = 0). f > 0 everywhere is a strict
+// self-stress, which with full rank proves collective first-order jamming, i.e. jamming for spheres
+// (:7291-7311). For an isostatic backbone the self-stress is unique up to scale, so a sign change in f
+// proves an opening motion exists; for a hyperstatic one it leaves the question open.
+void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<Index>& backbone,
+                          JammingTestResult& result) {
+  std::vector<int> freeCol(static_cast<std::size_t>(a.cols), -1);
+  int nf = 0;
+  for (int c = 0; c < a.cols; ++c) {
+    if (!(c < 3 && box.periodic(c))) freeCol[static_cast<std::size_t>(c)] = nf++;
+  }
+  std::vector<Eigen::Triplet<double>> t;
+  for (std::size_t e = 1; e < a.ar.size(); ++e) {
+    const int f = freeCol[static_cast<std::size_t>(a.ja[e] - 1)];
+    if (f >= 0) t.emplace_back(f, a.ia[e] - 1, a.ar[e]);
+  }
+  Eigen::SparseMatrix<double> am(nf, a.rows);
+  am.setFromTriplets(t.begin(), t.end());
+  const Eigen::SparseMatrix<double> k = am * am.transpose();
+  SpdSolver solver;
+  const std::string method = fmt::format("augmented-system certificate, {} backbone spheres, {} contacts",
+                                         backbone.size(), a.rows);
+  if (!solver.factor(k)) {
+    result.verdict = fmt::format("unjammed: rigidity matrix rank deficient (floppy modes; {})", method);
+    return;
+  }
+  // Conditioning: smallest and largest eigenvalues of K by inverse and direct power iteration.
+  std::mt19937_64 rng(12345);
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd v(nf), w(nf);
+  for (int i = 0; i < nf; ++i) v[i] = normal(rng);
+  double lambdaMin = 0.0, lambdaMax = 0.0;
+  w = v.normalized();
+  for (int it = 0; it < 40; ++it) {
+    const Eigen::VectorXd u = solver.solve(w);
+    lambdaMin = 1.0 / u.norm();
+    w = u.normalized();
+  }
+  const Eigen::VectorXd floppy = w;
+  w = v.normalized();
+  for (int it = 0; it < 40; ++it) {
+    const Eigen::VectorXd u = k * w;
+    lambdaMax = u.norm();
+    w = u.normalized();
+  }
+  if (lambdaMin < 1e-12 * lambdaMax) {
+    result.verdict = fmt::format("unjammed: rigidity matrix numerically rank deficient (lambda_min / lambda_max = "
+                                 "{:.1e}; {})",
+                                 lambdaMin / lambdaMax, method);
+    for (std::size_t b = 0; b < backbone.size(); ++b) {
+      for (int c = 0; c < 3; ++c) {
+        const int f = freeCol[3 * b + static_cast<std::size_t>(c)];
+        if (f >= 0) result.motion(c, backbone[b]) = floppy[f];
+      }
+    }
+    return;
+  }
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(a.rows);
+  const Eigen::VectorXd f = ones - am.transpose() * solver.solve(am * ones);
+  const double residual = (am * f).norm() / (f.norm() * std::sqrt(lambdaMax));
+  const Index negative = static_cast<Index>((f.array() <= 1e-9 * f.maxCoeff()).count());
+  const std::int64_t needed = static_cast<std::int64_t>(nf) + 1;
+  if (negative == 0) {
+    result.jammed = true;
+    result.verdict = fmt::format(
+        "jammed (collectively, first order; {}: full rank, lambda_min / lambda_max = {:.1e}, strictly positive "
+        "self-stress, smallest / largest force {:.2e}, |A f| / |A| |f| = {:.1e})",
+        method, lambdaMin / lambdaMax, f.minCoeff() / f.maxCoeff(), residual);
+  } else if (a.rows == needed) {
+    result.verdict = fmt::format(
+        "unjammed: the isostatic backbone's only self-stress has {} non-positive forces, so a motion opens "
+        "contacts ({})",
+        negative, method);
+  } else {
+    result.verdict = fmt::format(
+        "inconclusive: hyperstatic backbone ({} contacts > {}) and the projected self-stress has {} "
+        "non-positive forces ({}); use the load test",
+        a.rows, needed, negative, method);
+  }
+}
+
 }  // namespace
 
 JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& box, const ContactNetwork& network,
-                                        double tolerance, std::uint64_t seed) {
+                                        double tolerance, std::uint64_t seed, int simplexLimit) {
   const auto start = std::chrono::steady_clock::now();
   const Index n = spheres.count();
   if (network.particles != n) {
@@ -110,17 +195,17 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   // cannot be jammed (seed :7291-7311, :4473-4476).
   const std::int64_t periodicAxes = box.periodic(0) + box.periodic(1) + box.periodic(2);
   const std::int64_t needed = 3 * static_cast<std::int64_t>(backbone.size()) - periodicAxes + 1;
-  if (static_cast<Index>(backbone.size()) > kSimplexLimit) {
+  if (static_cast<Index>(backbone.size()) > simplexLimit) {
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (a.rows < needed) {
       result.verdict = fmt::format(
-          "unjammed: hypostatic backbone ({} contacts < 3N' - {} + 1 = {}; at least {} floppy modes; by counting, "
-          "no LP above {} spheres)",
-          a.rows, periodicAxes, needed, needed - 1 - a.rows, kSimplexLimit);
+          "unjammed: hypostatic backbone ({} contacts < 3N' - {} + 1 = {}, the least that allows full rank and a "
+          "self-stress; by counting, no LP above {} spheres)",
+          a.rows, periodicAxes, needed, simplexLimit);
     } else {
-      result.verdict = fmt::format("not tested: {} backbone spheres exceed the simplex limit {} (use the load test)",
-                                   backbone.size(), kSimplexLimit);
+      augmentedCertificate(a, box, backbone, result);
     }
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
   }
   const int ne = static_cast<int>(a.ar.size()) - 1;
@@ -192,7 +277,8 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
 
 #else
 
-JammingTestResult testCollectiveJamming(const SphereView&, const Box&, const ContactNetwork&, double, std::uint64_t) {
+JammingTestResult testCollectiveJamming(const SphereView&, const Box&, const ContactNetwork&, double, std::uint64_t,
+                                        int) {
   throw ConfigError("the jamming test needs GLPK (libglpk-dev), which this build did not find");
 }
 

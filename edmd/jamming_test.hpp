@@ -81,8 +81,12 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
 bool jammingTestAvailable();
 
 /// Run the test on the backbone of `network` (spheres as analysed). `tolerance` is the relative size of
-/// an optimum that counts as non-zero. Throws ConfigError if GLPK is missing or the backbone is empty.
+/// an optimum that counts as non-zero. Backbones larger than `simplexLimit` spheres skip the LPs: a
+/// hypostatic one is unjammed by counting; otherwise the LP-free augmented-system certificate decides
+/// (full-rank rigidity matrix and a strictly positive self-stress; sparse Cholesky, seconds at N = 10,000).
+/// Throws ConfigError if GLPK is missing or the backbone is empty.
 JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& box, const ContactNetwork& network,
-                                        double tolerance = 1e-9, std::uint64_t seed = 1);
+                                        double tolerance = 1e-9, std::uint64_t seed = 1,
+                                        int simplexLimit = kSimplexLimit);
 
 }  // namespace polydem::edmd

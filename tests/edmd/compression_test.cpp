@@ -70,6 +70,17 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   EXPECT_LT(r.net.rattlerFraction(), 0.06);
   EXPECT_NEAR(r.net.backboneCoordination(), 6.0, 0.06);
   EXPECT_LE(std::abs(r.net.isostaticExcess()), 4);
+  {
+    // The augmented-system certificate agrees with the ideal-contact LPs on this backbone.
+    const SphereView s{r.x, r.r};
+    const JammingTestResult lp = testCollectiveJamming(s, r.box, r.net);
+    const JammingTestResult certificate = testCollectiveJamming(s, r.box, r.net, 1e-9, 1, 0);
+    if (r.net.isostaticExcess() >= 0) {
+      EXPECT_EQ(certificate.jammed, lp.jammed) << lp.verdict << " / " << certificate.verdict;
+    } else {
+      EXPECT_FALSE(certificate.jammed) << certificate.verdict;  // hypostatic: unjammed by counting
+    }
+  }
   EXPECT_LT(r.net.maxOverlap, 1e-12);
   ASSERT_TRUE(jammingTestAvailable()) << "built without GLPK: scripts/setup.sh installs libglpk-dev";
   // Certification: no random load moves a backbone sphere; taking a backbone sphere out unjams its
@@ -224,6 +235,15 @@ TEST(JammingTest, LatticesOfTheSeed) {
     const ContactNetwork net = analyseContacts(spheres, box, ContactOptions{.relativeGap = 1e-9});
     EXPECT_EQ(testCollectiveJamming(spheres, box, net).jammed, fcc);
     EXPECT_EQ(testJammingUnderLoad(spheres, box, net).jammed, fcc);
+    // The same verdicts from the LP-free augmented-system certificate (forced with simplexLimit = 0):
+    // FCC has full rank and a uniform positive self-stress; simple cubic has floppy modes (sliding rows).
+    const JammingTestResult certificate = testCollectiveJamming(spheres, box, net, 1e-9, 1, 0);
+    EXPECT_EQ(certificate.jammed, fcc) << certificate.verdict;
+    EXPECT_NE(certificate.verdict.find(fcc ? "strictly positive self-stress" : "rank deficient"), std::string::npos)
+        << certificate.verdict;
+    LoadTestOptions interior;
+    interior.solver = LpSolver::InteriorPoint;
+    EXPECT_EQ(testJammingUnderLoad(spheres, box, net, interior).jammed, fcc);
   }
 }
 
