@@ -44,5 +44,9 @@ if [[ -z "${QUICK:-}" ]]; then
   run "$polydem" jam -n 10000 --schedule 1e-2:1e2,1e-3:1e4,2e-4 --target-pressure 1e12 --progress 1000 -o mono10k.h5
   run "$polydem" jam -n 10000 --dist uniform-volume --omega 10 --schedule 1e-2:1e2,1e-3:1e4,2e-4 \
     --target-pressure 1e12 --progress 1000 -o uv10.h5
+  # Load tests at N = 10,000 use the interior point (6-12 minutes per round of 4 LPs with OpenBLAS).
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --subpacking-rounds 4
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --remove 0
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze uv10.h5 --certify --lp-solver interior --loads 1
 fi
 echo "wrote $out"
