@@ -533,6 +533,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       result.jammed = worst <= options.displacementLimit;
     }
     const Index setAside = std::count(displacedNow.begin(), displacedNow.end(), 1);
+    result.setAsidePerRound.push_back(setAside);
     if (setAside == 0) {
       result.subpacking = static_cast<Index>(loadedCount);
       result.subpackingJammed = true;
@@ -551,14 +552,18 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
                     : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
                                   result.displaced, options.displacementLimit, result.largestDisplacement);
   if (!result.jammed && options.subpackingRounds > 1) {
+    std::string perRound;
+    for (Index k : result.setAsidePerRound) perRound += fmt::format("{}{}", perRound.empty() ? "" : ", ", k);
     result.verdict +=
         result.subpackingJammed
-            ? fmt::format("; jammed subpacking of {} of {} backbone spheres ({:.2f}%) after {} rounds ({} set aside)",
+            ? fmt::format("; jammed subpacking of {} of {} backbone spheres ({:.2f}%) after {} rounds (displaced per "
+                          "round: {})",
                           result.subpacking, backboneTested, 100.0 * static_cast<double>(result.subpacking) /
                                                                  static_cast<double>(backboneTested),
-                          result.rounds, loose)
-            : fmt::format("; no jammed subpacking found in {} rounds ({} of {} backbone spheres set aside)",
-                          result.rounds, loose, backboneTested);
+                          result.rounds, perRound)
+            : fmt::format("; no jammed subpacking found in {} rounds ({} of {} backbone spheres set aside; displaced "
+                          "per round: {})",
+                          result.rounds, loose, backboneTested, perRound);
   }
   result.solver = useSimplex ? std::string("GLPK simplex")
                              : fmt::format("interior point ({}, {} iterations over {} LPs)",

@@ -70,6 +70,7 @@ struct LoadTestResult {
   std::string solver;        ///< which LP solver ran, with its iteration counts
   int rounds = 0;            ///< rounds run (see LoadTestOptions::subpackingRounds)
   Index loose = 0;           ///< backbone spheres set aside as displaced, over all rounds
+  std::vector<Index> setAsidePerRound;  ///< spheres displaced in each round (the last is 0 if it found a jammed subpacking)
   Index subpacking = 0;      ///< loaded spheres of the last round, if it displaced nobody
   bool subpackingJammed = false;  ///< a round displaced nobody (jammed == true implies it, with loose = 0)
 };
