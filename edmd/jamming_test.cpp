@@ -51,7 +51,6 @@ int solve(glp_prob* p) {
   return glp_get_status(p);
 }
 
-
 // LP-free certificate for isostatic or hyperstatic backbones (digest §3.4 [R]; seed eq. 9.5, :11339-11351,
 // and :7079-7104): with one sphere pinned, the rigidity matrix A (free coordinates x contacts) has full
 // row rank iff K = A A^T is positive definite (no floppy modes), and then f = 1 - A^T K^-1 A 1 is the
