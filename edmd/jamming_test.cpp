@@ -517,6 +517,12 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
             displacedNow[m] = 1;
           }
         }
+        if (options.progress) {
+          options.progress(fmt::format(
+              "round {} load {}{}: {} backbone spheres beyond {:.1e} D, largest {:.3g} D ({:.1f} s so far)", round,
+              load + 1, sign > 0 ? "+" : "-", displaced, options.displacementLimit, largest,
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
+        }
         if (largest > worst) {
           worst = largest;
           worstDisplaced = displaced;

@@ -15,6 +15,7 @@
 // what the LP could resolve anyway (:11163-11166). Strict jamming (box deformation) is not tested.
 #include <Eigen/Core>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -58,6 +59,9 @@ struct LoadTestOptions {
   /// > 1: rounds of the seed's Algorithm 13 that set displaced spheres aside and load the rest again,
   /// until a round displaces nobody (a jammed subpacking). 1 = test the packing as a whole only.
   int subpackingRounds = 1;
+  /// Called after each LP with a one-line summary (round, load, sign, largest displacement, seconds);
+  /// large packings take minutes per LP.
+  std::function<void(const std::string&)> progress;
 };
 struct LoadTestResult {
   bool jammed = false;

@@ -314,6 +314,10 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
       loadOptions.subpackingRounds = opt->subpackingRounds;
+      loadOptions.progress = [](const std::string& line) {
+        fmt::print("  load test: {}\n", line);
+        std::fflush(stdout);
+      };
       loadOptions.solver = opt->lpSolver == "simplex"    ? edmd::LpSolver::Simplex
                            : opt->lpSolver == "interior" ? edmd::LpSolver::InteriorPoint
                                                          : edmd::LpSolver::Automatic;
