@@ -5,9 +5,12 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <limits>
+#include <cmath>
 #include <random>
 #include <cstdlib>
 
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include "core/errors.hpp"
@@ -294,6 +297,9 @@ struct LoadLp {
   std::vector<double> gap;
   std::vector<char> pinned;  // per coordinate
   double bound = 10.0;
+  std::vector<double> columnBound;  // per coordinate if not empty (overrides bound)
+  std::vector<std::array<Index, 2>> pairs;  // per constraint: spheres i, j (j = -1 - wall for a wall)
+  std::vector<Eigen::Vector3d> normal;      // per constraint: u with u . (dR_i - dR_j) >= -h (walls: dR_j = 0)
 };
 
 #if POLYDEM_EDMD_WITH_GLPK
@@ -307,7 +313,8 @@ std::vector<double> solveLoadSimplex(const LoadLp& lp, const std::vector<double>
     if (lp.pinned[static_cast<std::size_t>(c - 1)]) {
       glp_set_col_bnds(glpk.p, c, GLP_FX, 0.0, 0.0);
     } else {
-      glp_set_col_bnds(glpk.p, c, GLP_DB, -lp.bound, lp.bound);
+      const double x = lp.columnBound.empty() ? lp.bound : lp.columnBound[static_cast<std::size_t>(c - 1)];
+      glp_set_col_bnds(glpk.p, c, GLP_DB, -x, x);
     }
     glp_set_obj_coef(glpk.p, c, beta[static_cast<std::size_t>(c - 1)]);
   }
@@ -355,6 +362,13 @@ std::vector<double> solveLoadInteriorPoint(const LoadLp& lp, const std::vector<d
   }
   for (int k = 0; k < lp.rows; ++k) cost[k] = lp.gap[static_cast<std::size_t>(k)];
   cost.tail(2 * m).setConstant(lp.bound);
+  if (!lp.columnBound.empty()) {
+    for (int c = 0; c < lp.cols; ++c) {
+      const int f = freeIndex[static_cast<std::size_t>(c)];
+      if (f < 0) continue;
+      cost[lp.rows + f] = cost[lp.rows + m + f] = lp.columnBound[static_cast<std::size_t>(c)];
+    }
+  }
   InteriorPointOptions ipOptions;
   ipOptions.trace = std::getenv("POLYDEM_IP_TRACE") != nullptr;
   const InteriorPointResult ip = solveStandardFormLp(e, r, cost, ipOptions);
@@ -371,6 +385,293 @@ std::vector<double> solveLoadInteriorPoint(const LoadLp& lp, const std::vector<d
     if (f >= 0) x[static_cast<std::size_t>(c)] = -ip.y[f];
   }
   return x;
+}
+
+// Constraints of the load LP for the spheres' current centres: every pair of movable spheres (slot >= 0)
+// with gap <= gapTolerance (r_i + r_j), and the walls; lengths in units of `diameter`.
+LoadLp buildLoadLp(const SphereView& spheres, const Box& box, const std::vector<int>& slot, double gapTolerance,
+                   double diameter) {
+  ContactOptions near;
+  near.relativeGap = gapTolerance;
+  const ContactNetwork wide = analyseContacts(spheres, box, near);
+  LoadLp lp;
+  lp.cols = 0;
+  for (int s : slot) lp.cols = std::max(lp.cols, 3 * (s + 1));
+  for (const auto& c : wide.contacts) {
+    const int bi = slot[static_cast<std::size_t>(c.i)], bj = slot[static_cast<std::size_t>(c.j)];
+    if (bi < 0 || bj < 0) continue;
+    const Eigen::Vector3d d = box.minimumImage(spheres.centre.col(c.i) - spheres.centre.col(c.j));
+    const double dist = d.norm();
+    const Eigen::Vector3d u = d / dist;
+    for (int k = 0; k < 3; ++k) {
+      lp.entries.emplace_back(3 * bi + k, lp.rows, u[k]);
+      lp.entries.emplace_back(3 * bj + k, lp.rows, -u[k]);
+    }
+    lp.gap.push_back(std::max(0.0, dist - (spheres.radius[c.i] + spheres.radius[c.j])) / diameter);
+    lp.pairs.push_back({c.i, c.j});
+    lp.normal.push_back(u);
+    ++lp.rows;
+  }
+  for (const WallContact& w : wide.wallContacts) {
+    const int bi = slot[static_cast<std::size_t>(w.i)];
+    if (bi < 0) continue;
+    const int k = w.wall / 2;
+    const double x = spheres.centre(k, w.i), r = spheres.radius[w.i];
+    lp.entries.emplace_back(3 * bi + k, lp.rows, w.wall % 2 ? -1.0 : 1.0);
+    lp.gap.push_back(std::max(0.0, w.wall % 2 ? box.length(k) - x - r : x - r) / diameter);
+    lp.pairs.push_back({w.i, -1 - w.wall});
+    lp.normal.push_back((w.wall % 2 ? -1.0 : 1.0) * Eigen::Vector3d::Unit(k));
+    ++lp.rows;
+  }
+  return lp;
+}
+
+// Local jamming LP of one sphere with its neighbours held fixed (seed eq. 4.15, :4886-4893): max b . x over
+// x in R^3 with a_k . x >= -h_k and |x_c| <= box. Three unknowns: the optimum is a vertex, found by trying
+// every triple of constraints (the box faces included). Returns the optimal x.
+Eigen::Vector3d localLoadOptimum(const std::vector<Eigen::Vector3d>& a, const std::vector<double>& h,
+                                 const Eigen::Vector3d& b, double box) {
+  std::vector<Eigen::Vector3d> rows = a;
+  std::vector<double> rhs;
+  for (double g : h) rhs.push_back(-g);
+  for (int k = 0; k < 3; ++k) {
+    rows.push_back(Eigen::Vector3d::Unit(k));
+    rhs.push_back(-box);
+    rows.push_back(-Eigen::Vector3d::Unit(k));
+    rhs.push_back(-box);
+  }
+  const std::size_t m = rows.size();
+  Eigen::Vector3d best = Eigen::Vector3d::Zero();
+  double bestValue = -std::numeric_limits<double>::infinity();
+  const double tolerance = 1e-12 * (1.0 + box);
+  for (std::size_t p = 0; p < m; ++p) {
+    for (std::size_t q = p + 1; q < m; ++q) {
+      for (std::size_t r = q + 1; r < m; ++r) {
+        Eigen::Matrix3d mat;
+        mat.row(0) = rows[p].transpose();
+        mat.row(1) = rows[q].transpose();
+        mat.row(2) = rows[r].transpose();
+        const double det = mat.determinant();
+        if (std::abs(det) < 1e-10) continue;
+        const Eigen::Vector3d x = mat.inverse() * Eigen::Vector3d(rhs[p], rhs[q], rhs[r]);
+        if (b.dot(x) <= bestValue) continue;
+        bool feasible = true;
+        for (std::size_t k = 0; k < m && feasible; ++k) feasible = rows[k].dot(x) >= rhs[k] - tolerance;
+        if (feasible) {
+          bestValue = b.dot(x);
+          best = x;
+        }
+      }
+    }
+  }
+  return best;
+}
+
+// Rattlers by the local LP (seed Algorithm 14 step 3, :5690-5692; Algorithm 13 step 4): a loaded sphere
+// that moves further than `limit` (mean diameters) under a random load or its opposite with every
+// neighbour held fixed is unloaded (it keeps its constraints, :5713-5725). Catches spheres with four or
+// more contacts in a degenerate arrangement (e.g. three coplanar, seed :11212-11216), which the contact
+// count misses. Only constraints with gap below sqrt(3) x 2 limit can bind inside the box |x_c| <= 2 limit.
+Index markLocalRattlers(const LoadLp& lp, const std::vector<int>& slot, std::vector<char>& loaded, double limit,
+                        std::mt19937_64& rng) {
+  const std::size_t movable = loaded.size();
+  std::vector<std::vector<int>> rowsOf(movable);
+  const double reach = 2.0 * std::sqrt(3.0) * limit;
+  for (int r = 0; r < lp.rows; ++r) {
+    if (lp.gap[static_cast<std::size_t>(r)] > reach) continue;
+    const auto& [i, j] = lp.pairs[static_cast<std::size_t>(r)];
+    rowsOf[static_cast<std::size_t>(slot[static_cast<std::size_t>(i)])].push_back(r + 1);
+    if (j >= 0) rowsOf[static_cast<std::size_t>(slot[static_cast<std::size_t>(j)])].push_back(-(r + 1));
+  }
+  std::normal_distribution<double> normal;
+  Index marked = 0;
+  std::vector<Eigen::Vector3d> a;
+  std::vector<double> h;
+  for (std::size_t m = 0; m < movable; ++m) {
+    if (!loaded[m]) continue;
+    a.clear();
+    h.clear();
+    for (int signedRow : rowsOf[m]) {
+      const std::size_t r = static_cast<std::size_t>(std::abs(signedRow) - 1);
+      a.push_back(signedRow > 0 ? lp.normal[r] : Eigen::Vector3d(-lp.normal[r]));
+      h.push_back(lp.gap[r]);
+    }
+    Eigen::Vector3d b(normal(rng), normal(rng), normal(rng));
+    b.normalize();
+    const double largest = std::max(localLoadOptimum(a, h, b, 2.0 * limit).norm(),
+                                    localLoadOptimum(a, h, -b, 2.0 * limit).norm());
+    if (largest > limit) {
+      loaded[m] = 0;
+      ++marked;
+    }
+  }
+  return marked;
+}
+
+// Largest t such that moving every sphere i by t dr_i (length units) from `centre` keeps the pairs and
+// walls of `lp` disjoint: the first root of |d + t v| = r_i + r_j along the straight line, in the
+// cancellation-free form. Pairs not in `lp` are farther apart than gapTolerance (r_i + r_j) and close by at
+// most 2 t max|dr|, which caps t (seed :5726-5746, where the EDMD predictor plays this role).
+double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Eigen::VectorXd& radius,
+                      const Box& box, const Eigen::Matrix3Xd& dr, double gapTolerance) {
+  const double largest = dr.colwise().norm().maxCoeff();
+  if (largest <= 0.0) return 0.0;
+  double t = gapTolerance * radius.minCoeff() / largest;
+  for (const auto& [i, j] : lp.pairs) {
+    if (j >= 0) {
+      const Eigen::Vector3d d = box.minimumImage(centre.col(i) - centre.col(j));
+      const Eigen::Vector3d v = dr.col(i) - dr.col(j);
+      const double b = d.dot(v);
+      if (b >= 0.0) continue;  // separating
+      const double sigma = radius[i] + radius[j];
+      const double c = std::max(0.0, d.squaredNorm() - sigma * sigma);
+      const double disc = b * b - v.squaredNorm() * c;
+      if (disc < 0.0) continue;  // passes by
+      t = std::min(t, c / (-b + std::sqrt(disc)));
+    } else {
+      const int wall = -1 - j, k = wall / 2;
+      const double toward = wall % 2 ? dr(k, i) : -dr(k, i);
+      if (toward <= 0.0) continue;
+      const double room = wall % 2 ? box.length(k) - centre(k, i) - radius[i] : centre(k, i) - radius[i];
+      t = std::min(t, std::max(0.0, room) / toward);
+    }
+  }
+  return t;
+}
+
+// The seed's Algorithm 14 (sequential random loading, :5684-5702, :5726-5760) for packings with gaps: for
+// each random load B and then -B, solve the load LP, scale its motion dR by the largest tau that keeps every
+// sphere disjoint along 0..tau dR (the linearised solution is feasible for tau <= 1, :4319-4388; the
+// true constraints often allow more), move the spheres, rebuild the constraints and repeat while some sphere
+// still moves more than beta D_i in a step. The spheres stay where the loads took them (no reset between
+// loads). Displacements are measured against each sphere's own diameter D_i (seed Table 4.2). Not jammed
+// as soon as the accumulated motion of a loaded sphere exceeds maxLimit D_i or the mean exceeds meanLimit.
+template <class RandomLoad, class Pin, class Solve>
+void sequentialLoading(const SphereView& spheres, const Box& box, const std::vector<Index>& movable,
+                       const std::vector<int>& slot, const std::vector<char>& loaded, double diameter,
+                       const LoadLp& first, const LoadTestOptions& options, RandomLoad&& randomLoad, Pin&& pin,
+                       Solve&& solveLp, std::chrono::steady_clock::time_point start, LoadTestResult& result) {
+  const Index n = spheres.count();
+  const Eigen::VectorXd radius = spheres.radius;
+  Eigen::Matrix3Xd centre = spheres.centre;
+  Eigen::Matrix3Xd moved = Eigen::Matrix3Xd::Zero(3, n);  // accumulated, unwrapped, length units
+  const double loadedCount = static_cast<double>(std::count(loaded.begin(), loaded.end(), 1));
+  // Unloaded spheres (rattlers) only make room; an LP may still send them anywhere within the box (:5719-5722),
+  // which is meaningless beyond the gap tolerance. Their coordinates are bounded so that they move by less
+  // than gapTolerance r_min, the range in which every pair that could collide is a constraint.
+  std::vector<double> columnBound(3 * movable.size(), options.maxDisplacement);
+  for (std::size_t m = 0; m < movable.size(); ++m) {
+    if (loaded[m]) continue;
+    for (int k = 0; k < 3; ++k) {
+      columnBound[3 * m + static_cast<std::size_t>(k)] =
+          0.99 * options.gapTolerance * radius.minCoeff() / (std::sqrt(3.0) * diameter);
+    }
+  }
+  bool configurationMoved = false;
+  bool stopped = false;    // a threshold was exceeded: unjammed
+  bool unsettled = false;  // a load still moved spheres by more than beta after maxSteps LPs
+  double totalMax = 0.0, totalMean = 0.0;  // accumulated displacement now
+  double peakMax = 0.0, peakMean = 0.0;    // the largest they have been
+  for (int load = 0; load < options.loads && !stopped; ++load) {
+    const std::vector<double> b = randomLoad();
+    for (double sign : {1.0, -1.0}) {
+      if (stopped) break;
+      std::vector<double> beta(b.size());
+      for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
+      bool settled = false;
+      for (int step = 1; step <= options.maxSteps && !stopped; ++step) {
+        LoadLp lp = configurationMoved
+                        ? buildLoadLp(SphereView{centre, radius}, box, slot, options.gapTolerance, diameter)
+                        : first;
+        lp.bound = options.maxDisplacement;
+        lp.columnBound = columnBound;
+        pin(lp);
+        const std::vector<double> x = solveLp(lp, beta);
+        ++result.steps;
+        Eigen::Matrix3Xd dr = Eigen::Matrix3Xd::Zero(3, n);
+        double linearLargest = 0.0;  // the LP's own motion, in mean diameters (the ideal test's measure)
+        Index linearBeyond = 0;
+        for (std::size_t m = 0; m < movable.size(); ++m) {
+          for (int k = 0; k < 3; ++k) dr(k, movable[m]) = x[3 * m + static_cast<std::size_t>(k)] * diameter;
+          if (!loaded[m]) continue;
+          const double d = dr.col(movable[m]).norm() / diameter;
+          linearLargest = std::max(linearLargest, d);
+          if (d > options.displacementLimit) ++linearBeyond;
+        }
+        if (step == 1 && linearLargest > result.linearLargest) {
+          result.linearLargest = linearLargest;
+          result.linearDisplaced = linearBeyond;
+        }
+        const double largestMove = dr.colwise().norm().maxCoeff();
+        if (largestMove <= 0.0) {
+          settled = true;
+          break;
+        }
+        const double cap = options.gapTolerance * radius.minCoeff() / largestMove;
+        const double tau = std::max(largestScaling(lp, centre, radius, box, dr, options.gapTolerance),
+                                    std::min(1.0, cap));
+        double stepMax = 0.0;
+        totalMax = 0.0;
+        double sum = 0.0;
+        Index beyond = 0;
+        for (std::size_t m = 0; m < movable.size(); ++m) {
+          const Index i = movable[m];
+          centre.col(i) = box.wrap(centre.col(i) + tau * dr.col(i));
+          moved.col(i) += tau * dr.col(i);
+          if (!loaded[m]) continue;  // rattlers may wander in their cages
+          const double di = 2.0 * radius[i];
+          stepMax = std::max(stepMax, tau * dr.col(i).norm() / di);
+          const double total = moved.col(i).norm() / di;
+          totalMax = std::max(totalMax, total);
+          sum += total;
+          if (total > options.maxLimit) ++beyond;
+        }
+        configurationMoved = true;
+        totalMean = sum / loadedCount;
+        peakMax = std::max(peakMax, totalMax);
+        peakMean = std::max(peakMean, totalMean);
+        result.displaced = beyond;
+        if (options.progress) {
+          options.progress(fmt::format(
+              "load {}{} step {}: LP motion up to {:.3g} D ({} spheres beyond {:.1e} D), scaled by {:.3g}: step up "
+              "to {:.3g} D_i; accumulated max {:.3g} D_i, mean {:.3g} D_i ({:.1f} s so far)",
+              load + 1, sign > 0 ? "+" : "-", step, linearLargest, linearBeyond, options.displacementLimit, tau,
+              stepMax, totalMax, totalMean,
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()));
+        }
+        if (totalMax > options.maxLimit || totalMean > options.meanLimit) stopped = true;
+        if (stepMax <= options.beta) {
+          settled = true;
+          break;
+        }
+      }
+      if (!settled && !stopped) unsettled = true;
+    }
+  }
+  result.largestDisplacement = peakMax;
+  result.meanDisplacement = peakMean;
+  result.motion = moved;
+  result.jammed = !stopped && !unsettled;
+  const std::string loads = fmt::format("{} random loads and their opposites, {} LPs", options.loads, result.steps);
+  const std::string linear =
+      fmt::format("the LPs' own motions reach {:.3g} D ({} loaded spheres beyond the ideal limit {:.1e} D)",
+                  result.linearLargest, result.linearDisplaced, options.displacementLimit);
+  if (result.jammed) {
+    result.verdict = fmt::format(
+        "jammed (sequential random loading, seed Algorithm 14): {}; largest accumulated displacement of a loaded "
+        "sphere {:.3g} D_i (limit {:.3g}), largest mean {:.3g} D_i (limit {:.3g}); {}",
+        loads, peakMax, options.maxLimit, peakMean, options.meanLimit, linear);
+  } else if (stopped) {
+    result.verdict = fmt::format(
+        "unjammed (sequential random loading, seed Algorithm 14): after {} LPs the loaded spheres moved by up to "
+        "{:.3g} D_i ({} beyond the limit {:.3g}), mean {:.3g} D_i (limit {:.3g}); {}",
+        result.steps, peakMax, result.displaced, options.maxLimit, peakMean, options.meanLimit, linear);
+  } else {
+    result.verdict = fmt::format(
+        "undecided (sequential random loading, seed Algorithm 14): a load still moved spheres by more than {:.3g} "
+        "D_i per step after {} steps; accumulated max {:.3g} D_i, mean {:.3g} D_i; {}",
+        options.beta, options.maxSteps, peakMax, peakMean, linear);
+  }
 }
 
 }  // namespace
@@ -408,49 +709,10 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     return result;
   }
   const double diameter = 2.0 * spheres.radius.mean();
-  // Constraints: every pair of remaining spheres within the gap tolerance, and the walls.
-  ContactOptions near;
-  near.relativeGap = options.gapTolerance;
-  const ContactNetwork wide = analyseContacts(spheres, box, near);
-  std::vector<int> ia{0}, ja{0};
-  std::vector<double> ar{0.0}, gap;
-  int rows = 0;
-  for (const auto& c : wide.contacts) {
-    const int bi = slot[static_cast<std::size_t>(c.i)], bj = slot[static_cast<std::size_t>(c.j)];
-    if (bi < 0 || bj < 0) continue;
-    const Eigen::Vector3d d = box.minimumImage(spheres.centre.col(c.i) - spheres.centre.col(c.j));
-    const double dist = d.norm();
-    const Eigen::Vector3d u = d / dist;
-    ++rows;
-    for (int k = 0; k < 3; ++k) {
-      ia.push_back(rows);
-      ja.push_back(3 * bi + k + 1);
-      ar.push_back(u[k]);
-      ia.push_back(rows);
-      ja.push_back(3 * bj + k + 1);
-      ar.push_back(-u[k]);
-    }
-    gap.push_back(std::max(0.0, dist - (spheres.radius[c.i] + spheres.radius[c.j])) / diameter);
-  }
-  for (const WallContact& w : wide.wallContacts) {
-    const int bi = slot[static_cast<std::size_t>(w.i)];
-    if (bi < 0) continue;
-    const int k = w.wall / 2;
-    const double x = spheres.centre(k, w.i), r = spheres.radius[w.i];
-    ++rows;
-    ia.push_back(rows);
-    ja.push_back(3 * bi + k + 1);
-    ar.push_back(w.wall % 2 ? -1.0 : 1.0);
-    gap.push_back(std::max(0.0, w.wall % 2 ? box.length(k) - x - r : x - r) / diameter);
-  }
-  result.constraints = rows;
-  const int cols = 3 * static_cast<int>(movable.size());
-  LoadLp lp;
-  lp.cols = cols;
-  lp.rows = rows;
-  lp.gap = gap;
+  LoadLp lp = buildLoadLp(spheres, box, slot, options.gapTolerance, diameter);
   lp.bound = options.maxDisplacement;
-  for (std::size_t e = 1; e < ar.size(); ++e) lp.entries.emplace_back(ja[e] - 1, ia[e] - 1, ar[e]);
+  result.constraints = lp.rows;
+  const int cols = lp.cols;
   const bool useSimplex = options.solver == LpSolver::Simplex ||
                           (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
                            static_cast<Index>(movable.size()) <= kSimplexLimit);
@@ -461,6 +723,66 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   int lps = 0;
   std::mt19937_64 rng(options.seed);
   std::normal_distribution<double> normal;
+  // A random load on the loaded spheres with zero net force (no drift of the whole packing).
+  auto randomLoad = [&]() {
+    const std::int64_t loadedCount = std::count(loaded.begin(), loaded.end(), 1);
+    std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (int c = 0; c < cols; ++c) {
+      if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
+      b[static_cast<std::size_t>(c)] = normal(rng);
+      mean[c % 3] += b[static_cast<std::size_t>(c)];
+    }
+    mean /= static_cast<double>(loadedCount);
+    for (int c = 0; c < cols; ++c) {
+      if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];
+    }
+    return b;
+  };
+  // Pin the first loaded sphere on the periodic axes (the trivial translations).
+  auto pin = [&](LoadLp& l) {
+    int pinnedSphere = -1;
+    for (std::size_t m = 0; m < movable.size() && pinnedSphere < 0; ++m) {
+      if (loaded[m]) pinnedSphere = static_cast<int>(m);
+    }
+    l.pinned.assign(static_cast<std::size_t>(cols), 0);
+    for (int k = 0; k < 3; ++k) {
+      if (box.periodic(k)) l.pinned[static_cast<std::size_t>(3 * pinnedSphere + k)] = 1;
+    }
+  };
+  auto solveLp = [&](const LoadLp& l, const std::vector<double>& beta) {
+    ++lps;
+#if POLYDEM_EDMD_WITH_GLPK
+    return useSimplex ? solveLoadSimplex(l, beta) : solveLoadInteriorPoint(l, beta, ipIterations);
+#else
+    return solveLoadInteriorPoint(l, beta, ipIterations);
+#endif
+  };
+  auto solverName = [&]() {
+    return useSimplex ? std::string("GLPK simplex")
+                      : fmt::format("interior point ({}, {} iterations over {} LPs)",
+                                    interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
+                                    ipIterations, lps);
+  };
+  if (options.localRattlers) {
+    result.localRattlers = markLocalRattlers(lp, slot, loaded, options.displacementLimit, rng);
+    if (options.progress) {
+      options.progress(fmt::format("local LP (neighbours fixed, loads +-b): {} more spheres move alone by more "
+                                   "than {:.1e} D and carry no load",
+                                   result.localRattlers, options.displacementLimit));
+    }
+    if (std::count(loaded.begin(), loaded.end(), 1) < 2) {
+      result.verdict = "unjammed: no sphere is locally jammed";
+      return result;
+    }
+  }
+  if (options.sequential) {
+    sequentialLoading(spheres, box, movable, slot, loaded, diameter, lp, options, randomLoad, pin, solveLp, start,
+                      result);
+    result.solver = solverName();
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+  }
   // Rounds of the seed's Algorithm 13 (:5621-5648): spheres a load displaces beyond the limit are set
   // aside (unloaded, like rattlers, but they keep their constraints, :5713-5725) and the rest is loaded
   // again, until a round displaces nobody: that remainder is a jammed subpacking (:4242-4256). Round 1
@@ -469,40 +791,17 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   for (int round = 1; round <= std::max(1, options.subpackingRounds); ++round) {
     const std::int64_t loadedCount = std::count(loaded.begin(), loaded.end(), 1);
     if (loadedCount < 2) break;
-    int pinnedSphere = -1;
-    for (std::size_t m = 0; m < movable.size() && pinnedSphere < 0; ++m) {
-      if (loaded[m]) pinnedSphere = static_cast<int>(m);
-    }
-    lp.pinned.assign(static_cast<std::size_t>(cols), 0);
-    for (int k = 0; k < 3; ++k) {
-      if (box.periodic(k)) lp.pinned[static_cast<std::size_t>(3 * pinnedSphere + k)] = 1;
-    }
+    pin(lp);
     double worst = -1.0;
     Index worstDisplaced = 0;
     Eigen::Matrix3Xd worstMotion;
     std::vector<char> displacedNow(movable.size(), 0);
     for (int load = 0; load < options.loads; ++load) {
-      std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
-      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-      for (int c = 0; c < cols; ++c) {
-        if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
-        b[static_cast<std::size_t>(c)] = normal(rng);
-        mean[c % 3] += b[static_cast<std::size_t>(c)];
-      }
-      mean /= static_cast<double>(loadedCount);
-      for (int c = 0; c < cols; ++c) {
-        if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];  // no net force
-      }
+      const std::vector<double> b = randomLoad();  // no net force
       for (double sign : {1.0, -1.0}) {
         std::vector<double> beta(b.size());
         for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
-        ++lps;
-#if POLYDEM_EDMD_WITH_GLPK
-        const std::vector<double> x =
-            useSimplex ? solveLoadSimplex(lp, beta) : solveLoadInteriorPoint(lp, beta, ipIterations);
-#else
-        const std::vector<double> x = solveLoadInteriorPoint(lp, beta, ipIterations);
-#endif
+        const std::vector<double> x = solveLp(lp, beta);
         double largest = 0.0;
         Index displaced = 0;
         Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
@@ -570,10 +869,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
                           "per round: {})",
                           result.rounds, loose, backboneTested, perRound);
   }
-  result.solver = useSimplex ? std::string("GLPK simplex")
-                             : fmt::format("interior point ({}, {} iterations over {} LPs)",
-                                           interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
-                                           ipIterations, lps);
+  result.solver = solverName();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }

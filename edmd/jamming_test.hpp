@@ -59,6 +59,19 @@ struct LoadTestOptions {
   /// > 1: rounds of the seed's Algorithm 13 that set displaced spheres aside and load the rest again,
   /// until a round displaces nobody (a jammed subpacking). 1 = test the packing as a whole only.
   int subpackingRounds = 1;
+  /// true: the seed's Algorithm 14 (sequential random loading) for packings with gaps: each load's LP
+  /// motion is scaled to the first true collision, applied, and the LP solved again from there while a
+  /// step moves some loaded sphere by more than beta D_i (D_i its own diameter), up to maxSteps LPs per
+  /// load. Jammed if, over all loads, no loaded sphere moved more than maxLimit D_i in all and the mean is
+  /// at most meanLimit D_i. subpackingRounds is not used. false: a single LP per load (the ideal test).
+  bool sequential = false;
+  /// Before the loads, unload spheres that a random load moves by more than displacementLimit with their
+  /// neighbours held fixed (the seed's rattler LP, eq. 4.15): degenerate cages the contact count misses.
+  bool localRattlers = true;
+  double beta = 0.01;        ///< seed :5753 (beta ~ 0.01-0.1): a step below this is not significant
+  double maxLimit = 0.05;    ///< = the default gap tolerance: beyond it the constraint set is incomplete
+  double meanLimit = 1e-3;
+  int maxSteps = 10;
   /// Called after each LP with a one-line summary (round, load, sign, largest displacement, seconds);
   /// large packings take minutes per LP.
   std::function<void(const std::string&)> progress;
@@ -77,6 +90,12 @@ struct LoadTestResult {
   std::vector<Index> setAsidePerRound;  ///< spheres displaced in each round (the last is 0 if it found a jammed subpacking)
   Index subpacking = 0;      ///< loaded spheres of the last round, if it displaced nobody
   bool subpackingJammed = false;  ///< a round displaced nobody (jammed == true implies it, with loose = 0)
+  // Sequential loading (LoadTestOptions::sequential); largestDisplacement is then in own diameters D_i.
+  double meanDisplacement = 0.0;  ///< mean accumulated displacement of the loaded spheres, D_i
+  int steps = 0;                  ///< LPs solved
+  Index localRattlers = 0;        ///< loaded spheres unloaded by the local LP (LoadTestOptions::localRattlers)
+  double linearLargest = 0.0;     ///< largest first-step LP motion of a loaded sphere, mean diameters
+  Index linearDisplaced = 0;      ///< loaded spheres beyond displacementLimit in that LP
 };
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options = {});

@@ -43,6 +43,12 @@ struct AnalyzeOptions {
   int loads = 2;
   std::string lpSolver = "auto";
   int subpackingRounds = 1;
+  std::string loadTest = "sequential";
+  double beta = 0.01;
+  double maxLimit = 0.05;
+  double meanLimit = 1e-3;
+  int maxSteps = 10;
+  bool noLocalRattlers = false;
   bool skipIdeal = false;
   bool structureOnly = false;
   bool order = false;
@@ -184,8 +190,28 @@ Runner addAnalyze(CLI::App& app) {
   cmd->add_option("--load-gap", opt->loadGap,
                   "--certify: pairs with gap <= this x (r_i + r_j) are constraints of the load test")
       ->capture_default_str();
+  cmd->add_option("--load-test", opt->loadTest,
+                  "--certify: sequential = the seed's Algorithm 14 for packings with gaps (each load's motion is "
+                  "scaled to the first collision, applied and loaded again; verdict from the accumulated "
+                  "displacements); single = one LP per load, any sphere beyond --displacement-limit unjams "
+                  "(Algorithm 13, with --subpacking-rounds)")
+      ->check(CLI::IsMember({"sequential", "single"}))
+      ->capture_default_str();
   cmd->add_option("--displacement-limit", opt->displacementLimit,
-                  "--certify: a load moving a sphere further than this (mean diameters) unjams")
+                  "--certify: single: a load moving a sphere further than this (mean diameters) unjams; "
+                  "sequential: reported for the LPs' own motions")
+      ->capture_default_str();
+  cmd->add_option("--beta", opt->beta,
+                  "--certify sequential: load again while a step moves a sphere by more than this (own diameters)")
+      ->capture_default_str();
+  cmd->add_option("--max-limit", opt->maxLimit,
+                  "--certify sequential: unjammed if a loaded sphere moves further in all (own diameters)")
+      ->capture_default_str();
+  cmd->add_option("--mean-limit", opt->meanLimit,
+                  "--certify sequential: unjammed if the mean displacement of the loaded spheres exceeds this")
+      ->capture_default_str();
+  cmd->add_option("--max-steps", opt->maxSteps, "--certify sequential: LPs per load at most")
+      ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_option("--loads", opt->loads, "--certify: random loads (each also applied reversed)")->capture_default_str();
   cmd->add_option("--lp-solver", opt->lpSolver,
@@ -198,6 +224,8 @@ Runner addAnalyze(CLI::App& app) {
                   "to this many rounds in all, to find a jammed subpacking (seed Algorithm 13)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  cmd->add_flag("--no-local-rattlers", opt->noLocalRattlers,
+                "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd->add_option("--motion-csv", opt->motionCsv, "write the unjamming motion (i,dx,dy,dz) if one is found");
   cmd->add_flag("--structure-only", opt->structureOnly,
@@ -314,6 +342,15 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
       loadOptions.subpackingRounds = opt->subpackingRounds;
+      loadOptions.sequential = opt->loadTest == "sequential";
+      if (loadOptions.sequential && opt->subpackingRounds > 1) {
+        throw ConfigError("--subpacking-rounds belongs to --load-test single (the sequential test has no rounds)");
+      }
+      loadOptions.beta = opt->beta;
+      loadOptions.maxLimit = opt->maxLimit;
+      loadOptions.meanLimit = opt->meanLimit;
+      loadOptions.maxSteps = opt->maxSteps;
+      loadOptions.localRattlers = !opt->noLocalRattlers;
       loadOptions.progress = [](const std::string& line) {
         fmt::print("  load test: {}\n", line);
         std::fflush(stdout);

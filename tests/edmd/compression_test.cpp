@@ -121,10 +121,42 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   EXPECT_GE(holedRounds.loose, unjammed.displaced);
   // Either a jammed remainder, which with the set-aside spheres makes up the tested backbone, or every
   // backbone sphere was displaced at some round (in 200 spheres a hole unjams nearly everything).
+  // (Spheres the local LP finds loose once the hole is made carry no load from the start.)
+  const Index setAside = holedRounds.loose + holedRounds.localRattlers;
   if (holedRounds.subpackingJammed) {
-    EXPECT_EQ(holedRounds.subpacking + holedRounds.loose, r.net.backbone - 1);
+    EXPECT_EQ(holedRounds.subpacking + setAside, r.net.backbone - 1);
   } else {
-    EXPECT_GE(holedRounds.loose, r.net.backbone - 1 - 1) << holedRounds.verdict;
+    EXPECT_GE(setAside, r.net.backbone - 1 - 1) << holedRounds.verdict;
+  }
+  // Sequential random loading (seed Algorithm 14): the intact packing barely moves; the holed one moves
+  // beyond the limits, and the motion it reports keeps every pair disjoint (the scaling stops at the first
+  // true collision; IPM and simplex solutions are feasible to about 1e-9).
+  LoadTestOptions sequential;
+  sequential.sequential = true;
+  const LoadTestResult seqIntact = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+  EXPECT_TRUE(seqIntact.jammed) << seqIntact.verdict;
+  EXPECT_EQ(seqIntact.steps, 4);  // two loads and their opposites, each settled after one LP
+  EXPECT_LT(seqIntact.largestDisplacement, sequential.beta);
+  EXPECT_LE(seqIntact.meanDisplacement, seqIntact.largestDisplacement);
+  sequential.removed = holed.removed;
+  for (LpSolver solver : {LpSolver::Simplex, LpSolver::InteriorPoint}) {
+    sequential.solver = solver;
+    const LoadTestResult seqHoled = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+    EXPECT_FALSE(seqHoled.jammed) << seqHoled.verdict;
+    EXPECT_TRUE(seqHoled.largestDisplacement > sequential.maxLimit ||
+                seqHoled.meanDisplacement > sequential.meanLimit)
+        << seqHoled.verdict;
+    const Eigen::Matrix3Xd moved = r.x + seqHoled.motion;
+    double worst = 0.0;
+    for (Index i = 0; i < r.x.cols(); ++i) {
+      if (i == victim) continue;
+      for (Index j = i + 1; j < r.x.cols(); ++j) {
+        if (j == victim) continue;
+        const double d = r.box.minimumImage(moved.col(i) - moved.col(j)).norm();
+        worst = std::max(worst, (r.r[i] + r.r[j] - d) / (r.r[i] + r.r[j]));
+      }
+    }
+    EXPECT_LT(worst, 1e-8) << "overlap after the sequential motion";
   }
 }
 
@@ -244,6 +276,32 @@ TEST(JammingTest, LatticesOfTheSeed) {
     LoadTestOptions interior;
     interior.solver = LpSolver::InteriorPoint;
     EXPECT_EQ(testJammingUnderLoad(spheres, box, net, interior).jammed, fcc);
+    // Sequential loading: FCC does not move at all; the sliding rows of simple cubic accumulate motion
+    // step by step (each step capped where uncounted pairs could meet) until it exceeds the limit.
+    LoadTestOptions sequential;
+    sequential.sequential = true;
+    const LoadTestResult seq = testJammingUnderLoad(spheres, box, net, sequential);
+    EXPECT_EQ(seq.jammed, fcc) << seq.verdict;
+    // The local LP (neighbours fixed): every lattice sphere is caged; next to a vacancy in simple cubic
+    // exactly the six neighbours can move alone (into the hole); in FCC none can: a neighbour moving
+    // towards the hole closes its contacts with the hole's other neighbours.
+    EXPECT_EQ(seq.localRattlers, 0);
+    LoadTestOptions vacancy = sequential;
+    vacancy.removed = {0};
+    EXPECT_EQ(testJammingUnderLoad(spheres, box, net, vacancy).localRattlers, fcc ? 0 : 6);
+    if (fcc) {
+      EXPECT_LT(seq.largestDisplacement, 1e-9);
+    } else {
+      // Every sphere slides 0.025 D in the first step (the cap of gapTolerance r for uncounted pairs):
+      // the mean alone exceeds its limit. Without the mean limit the steps go on until the largest does.
+      EXPECT_GT(seq.meanDisplacement, sequential.meanLimit);
+      EXPECT_EQ(seq.steps, 1);
+      sequential.meanLimit = 1.0;
+      const LoadTestResult longer = testJammingUnderLoad(spheres, box, net, sequential);
+      EXPECT_FALSE(longer.jammed) << longer.verdict;
+      EXPECT_GT(longer.largestDisplacement, sequential.maxLimit);
+      EXPECT_GT(longer.steps, 2);
+    }
   }
 }
 
