@@ -44,9 +44,15 @@ if [[ -z "${QUICK:-}" ]]; then
   run "$polydem" jam -n 10000 --schedule 1e-2:1e2,1e-3:1e4,2e-4 --target-pressure 1e12 --progress 1000 -o mono10k.h5
   run "$polydem" jam -n 10000 --dist uniform-volume --omega 10 --schedule 1e-2:1e2,1e-3:1e4,2e-4 \
     --target-pressure 1e12 --progress 1000 -o uv10.h5
-  # Load tests at N = 10,000 use the interior point (6-12 minutes per round of 4 LPs with OpenBLAS).
-  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --subpacking-rounds 4
+  # Load tests at N = 10,000 use the interior point (1-2 minutes per LP with OpenBLAS on one thread).
+  # Sequential loading (seed Algorithm 14, the default), then the single-LP ideal-limit test with rounds.
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --remove 0
-  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze uv10.h5 --certify --lp-solver interior --loads 1
+  # The holed packing without the stopping thresholds: it keeps moving at every step.
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --remove 0 --no-ideal \
+    --loads 1 --max-limit 10 --mean-limit 10 --max-steps 8
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze uv10.h5 --certify --lp-solver interior
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --load-test single \
+    --subpacking-rounds 4
 fi
 echo "wrote $out"
