@@ -678,6 +678,58 @@ void sequentialLoading(const SphereView& spheres, const Box& box, const std::vec
 
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options) {
+  if (options.sequential && options.subpackingRounds > 1) {
+    // Rounds of the seed's Algorithm 13 (:5621-5648) around the sequential test: the loaded spheres that
+    // moved beyond maxLimit are removed from the packing (no variables, no constraints: stricter than
+    // unloading them) and the rest is tested again from the original configuration, until a round
+    // passes; that remainder is a jammed subpacking, which by the seed's definition makes the packing
+    // jammed (:4242-4256). A round stopped by the mean alone names nobody to remove and ends the search.
+    const auto start = std::chrono::steady_clock::now();
+    LoadTestOptions round = options;
+    round.subpackingRounds = 1;
+    LoadTestResult first;
+    Index removedTotal = 0;
+    for (int r = 1; r <= options.subpackingRounds; ++r) {
+      if (options.progress) options.progress(fmt::format("subpacking round {}", r));
+      LoadTestResult now = testJammingUnderLoad(spheres, box, network, round);
+      if (r == 1) first = now;
+      first.rounds = r;
+      if (now.jammed) {
+        first.subpackingJammed = true;
+        first.setAsidePerRound.push_back(0);
+        Index tested = 0;
+        for (Index i = 0; i < spheres.count(); ++i) tested += network.rattler[static_cast<std::size_t>(i)] ? 0 : 1;
+        first.subpacking = tested - static_cast<Index>(options.removed.size()) - removedTotal - now.localRattlers;
+        break;
+      }
+      std::vector<char> gone(static_cast<std::size_t>(spheres.count()), 0);
+      for (Index i : round.removed) gone[static_cast<std::size_t>(i)] = 1;
+      Index added = 0;
+      for (Index i = 0; i < spheres.count(); ++i) {
+        if (gone[static_cast<std::size_t>(i)] || network.rattler[static_cast<std::size_t>(i)]) continue;
+        if (now.motion.col(i).norm() / (2.0 * spheres.radius[i]) > options.maxLimit) {
+          round.removed.push_back(i);
+          ++added;
+        }
+      }
+      first.setAsidePerRound.push_back(added);
+      removedTotal += added;
+      if (added == 0) break;
+    }
+    first.loose = removedTotal;
+    std::string perRound;
+    for (Index k : first.setAsidePerRound) perRound += fmt::format("{}{}", perRound.empty() ? "" : ", ", k);
+    if (!first.jammed) {
+      first.verdict +=
+          first.subpackingJammed
+              ? fmt::format("; jammed subpacking of {} spheres after {} rounds (loaded spheres beyond {:.3g} D_i "
+                            "removed per round: {})",
+                            first.subpacking, first.rounds, options.maxLimit, perRound)
+              : fmt::format("; no jammed subpacking in {} rounds (removed per round: {})", first.rounds, perRound);
+    }
+    first.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return first;
+  }
   const auto start = std::chrono::steady_clock::now();
   const Index n = spheres.count();
   if (network.particles != n) {

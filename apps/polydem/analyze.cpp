@@ -220,14 +220,15 @@ Runner addAnalyze(CLI::App& app) {
       ->check(CLI::IsMember({"auto", "simplex", "interior"}))
       ->capture_default_str();
   cmd->add_option("--subpacking-rounds", opt->subpackingRounds,
-                  "--certify: if the packing is unjammed, set the displaced spheres aside and load the rest again, up "
-                  "to this many rounds in all, to find a jammed subpacking (seed Algorithm 13)")
+                  "--certify: if the packing is unjammed, set the displaced spheres aside (sequential: remove them) "
+                  "and load the rest again, up to this many rounds in all, to find a jammed subpacking (seed "
+                  "Algorithm 13)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   cmd->add_flag("--no-local-rattlers", opt->noLocalRattlers,
                 "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
-  cmd->add_option("--motion-csv", opt->motionCsv, "write the unjamming motion (i,dx,dy,dz) if one is found");
+  cmd->add_option("--motion-csv", opt->motionCsv, "write the load test's motion (the unjamming motion, or the displacements the loads achieved)");
   cmd->add_flag("--structure-only", opt->structureOnly,
                 "skip the contact network and jamming statistics (gases, liquids, crystals)");
   cmd->add_flag("--order", opt->order,
@@ -343,9 +344,6 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.loads = opt->loads;
       loadOptions.subpackingRounds = opt->subpackingRounds;
       loadOptions.sequential = opt->loadTest == "sequential";
-      if (loadOptions.sequential && opt->subpackingRounds > 1) {
-        throw ConfigError("--subpacking-rounds belongs to --load-test single (the sequential test has no rounds)");
-      }
       loadOptions.beta = opt->beta;
       loadOptions.maxLimit = opt->maxLimit;
       loadOptions.meanLimit = opt->meanLimit;
@@ -362,12 +360,17 @@ Runner addAnalyze(CLI::App& app) {
       const edmd::LoadTestResult jam = edmd::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
       fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {}, {:.2f} s)\n",
                  jam.verdict, jam.constraints, loadOptions.gapTolerance, jam.solver, jam.seconds);
-      if (!jam.jammed && !opt->motionCsv.empty()) {
+      if (!opt->motionCsv.empty()) {
         std::FILE* f = std::fopen(opt->motionCsv.c_str(), "w");
         if (!f) throw InputError(fmt::format("{}: cannot open for writing", opt->motionCsv));
-        fmt::print(f, "i,dx,dy,dz\n");
+        // Radius, contacts and rattler flag with the motion, so the moving spheres can be told apart.
+        fmt::print(f, "i,radius,contacts,rattler,dx,dy,dz,moved_over_diameter\n");
         for (Index i = 0; i < n; ++i) {
-          fmt::print(f, "{},{:.10g},{:.10g},{:.10g}\n", i, jam.motion(0, i), jam.motion(1, i), jam.motion(2, i));
+          const double r = spheres.radius[i];
+          fmt::print(f, "{},{:.10g},{},{},{:.10g},{:.10g},{:.10g},{:.6g}\n", i, r,
+                     net.coordination[static_cast<std::size_t>(i)],
+                     tested.rattler[static_cast<std::size_t>(i)] ? 1 : 0, jam.motion(0, i), jam.motion(1, i),
+                     jam.motion(2, i), jam.motion.col(i).norm() / (2.0 * r));
         }
         std::fclose(f);
         fmt::print("wrote {}\n", opt->motionCsv);

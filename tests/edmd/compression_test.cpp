@@ -158,6 +158,21 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
     }
     EXPECT_LT(worst, 1e-8) << "overlap after the sequential motion";
   }
+  // With subpacking rounds the spheres beyond the limit are removed and the rest tested again: the
+  // counts add up to the tested backbone, or the search ends with a round that names nobody.
+  sequential.solver = LpSolver::Automatic;
+  sequential.subpackingRounds = 4;
+  const LoadTestResult seqRounds = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+  EXPECT_FALSE(seqRounds.jammed) << seqRounds.verdict;
+  ASSERT_FALSE(seqRounds.setAsidePerRound.empty());
+  if (seqRounds.subpackingJammed) {
+    EXPECT_GT(seqRounds.subpacking, 0);
+    EXPECT_LE(seqRounds.subpacking + seqRounds.loose, r.net.backbone - 1) << seqRounds.verdict;
+    EXPECT_NE(seqRounds.verdict.find("jammed subpacking of"), std::string::npos) << seqRounds.verdict;
+  } else {
+    EXPECT_TRUE(seqRounds.setAsidePerRound.back() == 0 || seqRounds.rounds == 4) << seqRounds.verdict;
+  }
+  EXPECT_EQ(seqRounds.setAsidePerRound.size(), static_cast<std::size_t>(seqRounds.rounds));
 }
 
 TEST(Compression, SmallBidispersePackingJams) {
