@@ -390,13 +390,15 @@ std::vector<double> solveLoadInteriorPoint(const LoadLp& lp, const std::vector<d
 // Constraints of the load LP for the spheres' current centres: every pair of movable spheres (slot >= 0)
 // with gap <= gapTolerance (r_i + r_j), and the walls; lengths in units of `diameter`.
 LoadLp buildLoadLp(const SphereView& spheres, const Box& box, const std::vector<int>& slot, double gapTolerance,
-                   double diameter) {
+                   double diameter, bool strict = false) {
   ContactOptions near;
   near.relativeGap = gapTolerance;
   const ContactNetwork wide = analyseContacts(spheres, box, near);
   LoadLp lp;
   lp.cols = 0;
   for (int s : slot) lp.cols = std::max(lp.cols, 3 * (s + 1));
+  const int strain = lp.cols;  // strict: six Voigt strain columns after the coordinates
+  if (strict) lp.cols += 6;
   for (const auto& c : wide.contacts) {
     const int bi = slot[static_cast<std::size_t>(c.i)], bj = slot[static_cast<std::size_t>(c.j)];
     if (bi < 0 || bj < 0) continue;
@@ -406,6 +408,22 @@ LoadLp buildLoadLp(const SphereView& spheres, const Box& box, const std::vector<
     for (int k = 0; k < 3; ++k) {
       lp.entries.emplace_back(3 * bi + k, lp.rows, u[k]);
       lp.entries.emplace_back(3 * bj + k, lp.rows, -u[k]);
+    }
+    if (strict) {
+      // Deforming lattice (seed eq. 4.20-4.21, :5070-5098): a contact through the boundary also changes
+      // by u^T eps (Lambda n), Lambda n the image shift; eps symmetric, Voigt (11, 22, 33, 2x23, 2x13, 2x12).
+      const Eigen::Vector3d shift = (d - (spheres.centre.col(c.i) - spheres.centre.col(c.j))) / diameter;
+      if (shift.squaredNorm() > 0.0) {
+        const double a[6] = {u[0] * shift[0],
+                             u[1] * shift[1],
+                             u[2] * shift[2],
+                             0.5 * (u[1] * shift[2] + u[2] * shift[1]),
+                             0.5 * (u[0] * shift[2] + u[2] * shift[0]),
+                             0.5 * (u[0] * shift[1] + u[1] * shift[0])};
+        for (int v = 0; v < 6; ++v) {
+          if (a[v] != 0.0) lp.entries.emplace_back(strain + v, lp.rows, a[v]);
+        }
+      }
     }
     lp.gap.push_back(std::max(0.0, dist - (spheres.radius[c.i] + spheres.radius[c.j])) / diameter);
     lp.pairs.push_back({c.i, c.j});
@@ -421,6 +439,14 @@ LoadLp buildLoadLp(const SphereView& spheres, const Box& box, const std::vector<
     lp.gap.push_back(std::max(0.0, w.wall % 2 ? box.length(k) - x - r : x - r) / diameter);
     lp.pairs.push_back({w.i, -1 - w.wall});
     lp.normal.push_back((w.wall % 2 ? -1.0 : 1.0) * Eigen::Vector3d::Unit(k));
+    ++lp.rows;
+  }
+  if (strict) {
+    // The cell volume must not grow: -Tr eps >= 0 (seed eq. 4.17, 4.19).
+    for (int v = 0; v < 3; ++v) lp.entries.emplace_back(strain + v, lp.rows, -1.0);
+    lp.gap.push_back(0.0);
+    lp.pairs.push_back({-1, -1});
+    lp.normal.push_back(Eigen::Vector3d::Zero());
     ++lp.rows;
   }
   return lp;
@@ -480,6 +506,7 @@ Index markLocalRattlers(const LoadLp& lp, const std::vector<int>& slot, std::vec
   for (int r = 0; r < lp.rows; ++r) {
     if (lp.gap[static_cast<std::size_t>(r)] > reach) continue;
     const auto& [i, j] = lp.pairs[static_cast<std::size_t>(r)];
+    if (i < 0) continue;  // the trace row of the strict test
     rowsOf[static_cast<std::size_t>(slot[static_cast<std::size_t>(i)])].push_back(r + 1);
     if (j >= 0) rowsOf[static_cast<std::size_t>(slot[static_cast<std::size_t>(j)])].push_back(-(r + 1));
   }
@@ -761,8 +788,22 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     return result;
   }
   const double diameter = 2.0 * spheres.radius.mean();
-  LoadLp lp = buildLoadLp(spheres, box, slot, options.gapTolerance, diameter);
+  if (options.strict && !box.fullyPeriodic()) {
+    throw ConfigError("jamming test: the strict test (deforming lattice) needs a fully periodic box");
+  }
+  if (options.strict && options.sequential) {
+    throw ConfigError("jamming test: the strict test (deforming lattice) runs with the single-LP test only");
+  }
+  LoadLp lp = buildLoadLp(spheres, box, slot, options.gapTolerance, diameter, options.strict);
   lp.bound = options.maxDisplacement;
+  if (options.strict) {
+    // Strain bounded so that the cell boundary moves at most maxDisplacement mean diameters.
+    lp.columnBound.assign(static_cast<std::size_t>(lp.cols), options.maxDisplacement);
+    for (int v = 0; v < 6; ++v) {
+      lp.columnBound[static_cast<std::size_t>(lp.cols - 6 + v)] =
+          options.maxDisplacement * diameter / box.lengths().maxCoeff();
+    }
+  }
   result.constraints = lp.rows;
   const int cols = lp.cols;
   const bool useSimplex = options.solver == LpSolver::Simplex ||
@@ -780,13 +821,14 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     const std::int64_t loadedCount = std::count(loaded.begin(), loaded.end(), 1);
     std::vector<double> b(static_cast<std::size_t>(cols), 0.0);
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (int c = 0; c < cols; ++c) {
+    const int coordinates = 3 * static_cast<int>(loaded.size());  // strain columns carry no load
+    for (int c = 0; c < coordinates; ++c) {
       if (!loaded[static_cast<std::size_t>(c / 3)]) continue;
       b[static_cast<std::size_t>(c)] = normal(rng);
       mean[c % 3] += b[static_cast<std::size_t>(c)];
     }
     mean /= static_cast<double>(loadedCount);
-    for (int c = 0; c < cols; ++c) {
+    for (int c = 0; c < coordinates; ++c) {
       if (loaded[static_cast<std::size_t>(c / 3)]) b[static_cast<std::size_t>(c)] -= mean[c % 3];
     }
     return b;
@@ -854,9 +896,26 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
         std::vector<double> beta(b.size());
         for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
         const std::vector<double> x = solveLp(lp, beta);
+        double objective = 0.0;
+        for (std::size_t c = 0; c < beta.size(); ++c) objective += beta[c] * x[c];
+        result.objectives.push_back(objective);
         double largest = 0.0;
         Index displaced = 0;
         Eigen::Matrix3Xd motion = Eigen::Matrix3Xd::Zero(3, n);
+        if (options.strict) {
+          // The cell deformation as a displacement of the cell boundary, |eps| L_max, in mean diameters,
+          // judged like a sphere's displacement.
+          const std::size_t e = static_cast<std::size_t>(cols - 6);
+          Eigen::Matrix3d eps;
+          eps << x[e], 0.5 * x[e + 5], 0.5 * x[e + 4], 0.5 * x[e + 5], x[e + 1], 0.5 * x[e + 3], 0.5 * x[e + 4],
+              0.5 * x[e + 3], x[e + 2];
+          const double boundary = eps.norm() * box.lengths().maxCoeff() / diameter;
+          if (boundary > result.strainDisplacement) {
+            result.strainDisplacement = boundary;
+            result.strain = eps;
+          }
+          largest = std::max(largest, boundary);
+        }
         for (std::size_t m = 0; m < movable.size(); ++m) {
           Eigen::Vector3d dr;
           for (int k = 0; k < 3; ++k) dr[k] = x[3 * m + static_cast<std::size_t>(k)];
@@ -903,10 +962,16 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   result.loose = loose;
   const Index backboneTested = static_cast<Index>(backboneCount);
   result.verdict =
-      result.jammed ? fmt::format("jammed: no backbone sphere moves more than {:.1e} D under {} random loads",
+      result.jammed ? fmt::format("jammed{}: no backbone sphere moves more than {:.1e} D under {} random loads",
+                                  options.strict ? " (strictly: lattice deformation allowed)" : "",
                                   options.displacementLimit, 2 * options.loads)
-                    : fmt::format("unjammed: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
+                    : fmt::format("unjammed{}: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",
+                                  options.strict ? " (strict test, lattice deformation allowed)" : "",
                                   result.displaced, options.displacementLimit, result.largestDisplacement);
+  if (options.strict) {
+    result.verdict += fmt::format("; largest cell deformation {:.3g} D at the cell boundary (strain norm {:.3g})",
+                                  result.strainDisplacement, result.strain.norm());
+  }
   if (!result.jammed && options.subpackingRounds > 1) {
     std::string perRound;
     for (Index k : result.setAsidePerRound) perRound += fmt::format("{}{}", perRound.empty() ? "" : ", ", k);

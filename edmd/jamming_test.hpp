@@ -68,6 +68,10 @@ struct LoadTestOptions {
   /// Before the loads, unload spheres that a random load moves by more than displacementLimit with their
   /// neighbours held fixed (the seed's rattler LP, eq. 4.15): degenerate cages the contact count misses.
   bool localRattlers = true;
+  /// Strict jamming (single-LP test, fully periodic box): the cell may deform with a symmetric strain
+  /// that does not grow its volume (seed eq. 4.17-4.21); unjammed also if the boundary moves further than
+  /// displacementLimit.
+  bool strict = false;
   double beta = 0.01;        ///< seed :5753 (beta ~ 0.01-0.1): a step below this is not significant
   double maxLimit = 0.05;    ///< = the default gap tolerance: beyond it the constraint set is incomplete
   double meanLimit = 1e-3;
@@ -93,6 +97,9 @@ struct LoadTestResult {
   // Sequential loading (LoadTestOptions::sequential); largestDisplacement is then in own diameters D_i.
   double meanDisplacement = 0.0;  ///< mean accumulated displacement of the loaded spheres, D_i
   int steps = 0;                  ///< LPs solved
+  std::vector<double> objectives;  ///< single-LP test: optimal B . dR of each LP, in order
+  Eigen::Matrix3d strain = Eigen::Matrix3d::Zero();  ///< strict: the largest cell strain found
+  double strainDisplacement = 0.0;  ///< strict: |strain| L_max in mean diameters
   Index localRattlers = 0;        ///< loaded spheres unloaded by the local LP (LoadTestOptions::localRattlers)
   double linearLargest = 0.0;     ///< largest first-step LP motion of a loaded sphere, mean diameters
   Index linearDisplaced = 0;      ///< loaded spheres beyond displacementLimit in that LP

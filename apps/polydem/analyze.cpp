@@ -49,6 +49,7 @@ struct AnalyzeOptions {
   double meanLimit = 1e-3;
   int maxSteps = 10;
   bool noLocalRattlers = false;
+  bool strict = false;
   bool skipIdeal = false;
   bool structureOnly = false;
   bool order = false;
@@ -225,6 +226,8 @@ Runner addAnalyze(CLI::App& app) {
                   "Algorithm 13)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  cmd->add_flag("--strict", opt->strict,
+                "--certify --load-test single: strict jamming, the periodic cell may deform (volume not growing)");
   cmd->add_flag("--no-local-rattlers", opt->noLocalRattlers,
                 "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
@@ -349,6 +352,10 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.meanLimit = opt->meanLimit;
       loadOptions.maxSteps = opt->maxSteps;
       loadOptions.localRattlers = !opt->noLocalRattlers;
+      loadOptions.strict = opt->strict;
+      if (opt->strict && loadOptions.sequential) {
+        throw ConfigError("--strict needs --load-test single (the sequential test keeps the cell fixed)");
+      }
       loadOptions.progress = [](const std::string& line) {
         fmt::print("  load test: {}\n", line);
         std::fflush(stdout);

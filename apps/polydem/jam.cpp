@@ -171,9 +171,11 @@ Runner addJam(CLI::App& app) {
     double lastPrint = -1e300;
     auto line = [&](const edmd::Progress& p) {
       fmt::print(
-          "phi {:.6f}  p {:>10}  phiJ~ {:.6f}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
+          "phi {:.6f}  p {:>10}  phiJ~ {:>8}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
           "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
-          p.packingFraction, fmtPressure(p.pressure), p.jammingEstimate, p.rate, p.collisionsPerParticle,
+          p.packingFraction, fmtPressure(p.pressure),
+          // phi / (1 - 3/p) is undefined while p <= 3 (a dilute gas): a dash, not "nan".
+          std::isfinite(p.jammingEstimate) ? fmt::format("{:.6f}", p.jammingEstimate) : std::string("-"), p.rate, p.collisionsPerParticle,
           p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision, p.wallSeconds);
       std::fflush(stdout);
     };

@@ -128,6 +128,19 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   } else {
     EXPECT_GE(setAside, r.net.backbone - 1 - 1) << holedRounds.verdict;
   }
+  // Strict test: the deforming cell only adds freedom, so with the same loads every LP optimum B . dR is
+  // at least the fixed-cell one (the fixed cell, eps = 0, is feasible for the strict LP).
+  {
+    LoadTestOptions fixedCell, deforming;
+    deforming.strict = true;
+    const LoadTestResult a = testJammingUnderLoad(spheres, r.box, r.net, fixedCell);
+    const LoadTestResult b = testJammingUnderLoad(spheres, r.box, r.net, deforming);
+    ASSERT_EQ(a.objectives.size(), b.objectives.size());
+    for (std::size_t k = 0; k < a.objectives.size(); ++k) {
+      EXPECT_GE(b.objectives[k], a.objectives[k] - 1e-9 * (1.0 + std::abs(a.objectives[k]))) << k;
+    }
+    EXPECT_NE(b.verdict.find("cell deformation"), std::string::npos) << b.verdict;
+  }
   // Sequential random loading (seed Algorithm 14): the intact packing barely moves; the holed one moves
   // beyond the limits, and the motion it reports keeps every pair disjoint (the scaling stops at the first
   // true collision; IPM and simplex solutions are feasible to about 1e-9).
@@ -301,6 +314,14 @@ TEST(JammingTest, LatticesOfTheSeed) {
     // exactly the six neighbours can move alone (into the hole); in FCC none can: a neighbour moving
     // towards the hole closes its contacts with the hole's other neighbours.
     EXPECT_EQ(seq.localRattlers, 0);
+    // Strict jamming (deforming cell, seed Table 4.1): FCC is strictly jammed, simple cubic is not.
+    LoadTestOptions strict;
+    strict.strict = true;
+    const LoadTestResult strictResult = testJammingUnderLoad(spheres, box, net, strict);
+    EXPECT_EQ(strictResult.jammed, fcc) << strictResult.verdict;
+    if (fcc) {
+      EXPECT_LT(strictResult.strainDisplacement, 1e-9) << strictResult.verdict;
+    }
     LoadTestOptions vacancy = sequential;
     vacancy.removed = {0};
     EXPECT_EQ(testJammingUnderLoad(spheres, box, net, vacancy).localRattlers, fcc ? 0 : 6);
