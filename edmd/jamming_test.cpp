@@ -719,7 +719,12 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     for (int r = 1; r <= options.subpackingRounds; ++r) {
       if (options.progress) options.progress(fmt::format("subpacking round {}", r));
       LoadTestResult now = testJammingUnderLoad(spheres, box, network, round);
-      if (r == 1) first = now;
+      if (r == 1) {
+        first = now;
+      } else {
+        first.steps += now.steps;
+        first.solver += fmt::format(" + round {}: {}", r, now.solver);
+      }
       first.rounds = r;
       if (now.jammed) {
         first.subpackingJammed = true;
