@@ -48,9 +48,12 @@ if [[ -z "${QUICK:-}" ]]; then
   # Sequential loading (seed Algorithm 14, the default), then the single-LP ideal-limit test with rounds.
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --remove 0
-  # The holed packing without the stopping thresholds: it keeps moving at every step.
+  # The holed packing without the stopping thresholds: it keeps moving at every step (8 LPs per load).
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --remove 0 --no-ideal \
     --loads 1 --max-limit 10 --mean-limit 10 --max-steps 8
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --no-ideal \
+    --load-test single --strict
+  OPENBLAS_NUM_THREADS=1 run "$polydem" analyze uv10.h5 --certify --lp-solver interior --no-ideal --subpacking-rounds 12
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze uv10.h5 --certify --lp-solver interior
   OPENBLAS_NUM_THREADS=1 run "$polydem" analyze mono10k.h5 --certify --lp-solver interior --load-test single \
     --subpacking-rounds 4
