@@ -49,7 +49,15 @@ int solve(glp_prob* p) {
   glp_init_smcp(&parm);
   parm.msg_lev = GLP_MSG_OFF;
   parm.presolve = GLP_ON;
-  const int rc = glp_simplex(p, &parm);
+  int rc = glp_simplex(p, &parm);
+  if (rc != 0) {
+    // Presolve plus the default scaling can end in a numerical failure (GLP_EFAIL, seen on load LPs with
+    // hard walls); retry on the scaled problem from an advanced basis without presolve.
+    glp_scale_prob(p, GLP_SF_AUTO);
+    glp_adv_basis(p, 0);
+    parm.presolve = GLP_OFF;
+    rc = glp_simplex(p, &parm);
+  }
   if (rc != 0) throw SimulationError(fmt::format("jamming test: GLPK simplex failed (return code {})", rc));
   return glp_get_status(p);
 }
@@ -849,16 +857,29 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       if (box.periodic(k)) l.pinned[static_cast<std::size_t>(3 * pinnedSphere + k)] = 1;
     }
   };
+  int fallbacks = 0;
   auto solveLp = [&](const LoadLp& l, const std::vector<double>& beta) {
     ++lps;
 #if POLYDEM_EDMD_WITH_GLPK
-    return useSimplex ? solveLoadSimplex(l, beta) : solveLoadInteriorPoint(l, beta, ipIterations);
+    if (useSimplex) {
+      // x = 0 is always feasible and the box bounds the optimum, so a simplex failure or a "no feasible
+      // solution" status is GLPK's round-off (seen with hard walls): the interior point solves the same LP.
+      try {
+        return solveLoadSimplex(l, beta);
+      } catch (const SimulationError&) {
+        ++fallbacks;
+      }
+    }
+    return solveLoadInteriorPoint(l, beta, ipIterations);
 #else
     return solveLoadInteriorPoint(l, beta, ipIterations);
 #endif
   };
   auto solverName = [&]() {
-    return useSimplex ? std::string("GLPK simplex")
+    return useSimplex ? (fallbacks == 0 ? std::string("GLPK simplex")
+                                        : fmt::format("GLPK simplex; {} of {} LPs by the interior point after a "
+                                                      "simplex failure ({} iterations)",
+                                                      fallbacks, lps, ipIterations))
                       : fmt::format("interior point ({}, {} iterations over {} LPs)",
                                     interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
                                     ipIterations, lps);
