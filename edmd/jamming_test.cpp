@@ -801,6 +801,14 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     return result;
   }
   const double diameter = 2.0 * spheres.radius.mean();
+  if (!(options.beta > 0.0) || !(options.maxLimit > 0.0) || !(options.meanLimit > 0.0) || options.maxSteps < 1 ||
+      !(options.displacementLimit > 0.0) || !(options.gapTolerance > 0.0) || !(options.maxDisplacement > 0.0)) {
+    throw ConfigError(fmt::format(
+        "jamming test: beta ({}), max limit ({}), mean limit ({}), displacement limit ({}), gap tolerance ({}) and "
+        "displacement box ({}) must be positive and max steps ({}) at least 1",
+        options.beta, options.maxLimit, options.meanLimit, options.displacementLimit, options.gapTolerance,
+        options.maxDisplacement, options.maxSteps));
+  }
   if (options.strict && !box.fullyPeriodic()) {
     throw ConfigError("jamming test: the strict test (deforming lattice) needs a fully periodic box");
   }

@@ -204,12 +204,15 @@ Runner addAnalyze(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--beta", opt->beta,
                   "--certify sequential: load again while a step moves a sphere by more than this (own diameters)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--max-limit", opt->maxLimit,
                   "--certify sequential: unjammed if a loaded sphere moves further in all (own diameters)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--mean-limit", opt->meanLimit,
                   "--certify sequential: unjammed if the mean displacement of the loaded spheres exceeds this")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--max-steps", opt->maxSteps, "--certify sequential: LPs per load at most")
       ->check(CLI::Range(1, 1000))

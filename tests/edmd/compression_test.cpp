@@ -322,6 +322,13 @@ TEST(JammingTest, LatticesOfTheSeed) {
     if (fcc) {
       EXPECT_LT(strictResult.strainDisplacement, 1e-9) << strictResult.verdict;
     }
+    // Nonsense limits are refused, not used.
+    for (double LoadTestOptions::*field : {&LoadTestOptions::beta, &LoadTestOptions::maxLimit,
+                                           &LoadTestOptions::meanLimit, &LoadTestOptions::gapTolerance}) {
+      LoadTestOptions bad = sequential;
+      bad.*field = -1.0;
+      EXPECT_THROW(testJammingUnderLoad(spheres, box, net, bad), ConfigError);
+    }
     LoadTestOptions vacancy = sequential;
     vacancy.removed = {0};
     EXPECT_EQ(testJammingUnderLoad(spheres, box, net, vacancy).localRattlers, fcc ? 0 : 6);
