@@ -5,7 +5,8 @@
 # Monodisperse N spheres (default 1000), one growth rate R from the random sequential addition start at
 # phi 0.3 to p = 1e12 (switching to R only at p = 1e4 leaves phi_J unchanged to 1e-8, the structure is
 # set by then, and changes only the contacts; docs/edmd.md); two seeds per rate (the same seed gives the
-# same start). The distance from the slow-rate limit is taken per seed. Writes docs/benchmarks/final_rate/ (CSV, PNG,
+# same start). The distance from the slow-rate limit is taken per seed. The quick scan of fast rates to
+# p = 1e6 (N = 2000) stays in scripts/tradeoffs_report.sh; this one adds slow rates, p = 1e12 and contacts. Writes docs/benchmarks/final_rate/ (CSV, PNG,
 # README.md). Not part of CI: about 15 minutes on one core with the defaults.
 #
 #   scripts/jam_final_rate.sh [BUILD_DIR] [N]        (default build/, 1000)
