@@ -16,6 +16,7 @@
 #include "edmd/compression.hpp"
 #include "edmd/contact_network.hpp"
 #include "edmd/jamming_test.hpp"
+#include "edmd/leak_test.hpp"
 #include "structure/bond_order.hpp"
 #include "structure/channel_size.hpp"
 #include "structure/delaunay_neighbours.hpp"
@@ -51,6 +52,10 @@ struct AnalyzeOptions {
   bool noLocalRattlers = false;
   bool strict = false;
   bool skipIdeal = false;
+  double leakCollisions = 0.0;
+  int leakBlocks = 20;
+  double leakTolerance = 1e-3;
+  double leakDrift = 1.5;
   bool structureOnly = false;
   bool order = false;
   std::string channelsCsv;
@@ -235,6 +240,21 @@ Runner addAnalyze(CLI::App& app) {
                 "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
   cmd->add_flag("--no-ideal", opt->skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd->add_option("--motion-csv", opt->motionCsv, "write the load test's motion (the unjamming motion, or the displacements the loads achieved)");
+  cmd->add_option("--leak-test", opt->leakCollisions,
+                  "pressure-leak test (seed ch. 9): plain event-driven dynamics for this many collisions per particle; "
+                  "a jammed packing keeps its pressure and its backbone does not drift (with --remove: without the sphere)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--leak-blocks", opt->leakBlocks, "--leak-test: blocks (one pressure each)")
+      ->check(CLI::Range(4, 100000))
+      ->capture_default_str();
+  cmd->add_option("--leak-tolerance", opt->leakTolerance,
+                  "--leak-test: a relative pressure drop (last quarter against first) beyond this is a leak")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--leak-drift", opt->leakDrift,
+                  "--leak-test: mean backbone displacement growing more than this factor over the second half is a drift")
+      ->check(CLI::Range(1.0 + 1e-12, 1e300))
+      ->capture_default_str();
   cmd->add_flag("--structure-only", opt->structureOnly,
                 "skip the contact network and jamming statistics (gases, liquids, crystals)");
   cmd->add_flag("--order", opt->order,
@@ -385,6 +405,38 @@ Runner addAnalyze(CLI::App& app) {
         std::fclose(f);
         fmt::print("wrote {}\n", opt->motionCsv);
       }
+    }
+    if (opt->leakCollisions > 0.0) {
+      // --remove takes the sphere out of the dynamics too: the hole is the deliberate defect.
+      Eigen::Matrix3Xd x = data.position;
+      Eigen::VectorXd r = data.radius;
+      std::vector<char> watched = net.rattler;
+      if (opt->removeSphere >= 0) {
+        if (opt->removeSphere >= n) {
+          throw ConfigError(fmt::format("--remove {}: the packing has {} spheres", opt->removeSphere, n));
+        }
+        const Index k = opt->removeSphere, last = n - 1;
+        x.col(k) = x.col(last);
+        r[k] = r[last];
+        watched[static_cast<std::size_t>(k)] = watched[static_cast<std::size_t>(last)];
+        x.conservativeResize(3, last);
+        r.conservativeResize(last);
+        watched.pop_back();
+        fmt::print("leak test without sphere {} (the last sphere takes its number)\n", k);
+      }
+      edmd::LeakTestOptions leak;
+      leak.collisionsPerParticle = opt->leakCollisions;
+      leak.blocks = opt->leakBlocks;
+      leak.pressureTolerance = opt->leakTolerance;
+      leak.driftFactor = opt->leakDrift;
+      leak.progress = [](const std::string& line) {
+        fmt::print("  leak test: {}\n", line);
+        std::fflush(stdout);
+      };
+      const edmd::LeakTestResult result = edmd::testPressureLeak(x, r, data.box, watched, leak);
+      fmt::print("pressure-leak test      {} ({} collisions, {:.1f} s, {:.3g} collisions/s)\n", result.verdict,
+                 result.counts.collisions, result.seconds,
+                 static_cast<double>(result.counts.collisions) / std::max(result.seconds, 1e-9));
     }
     return 0;
   };

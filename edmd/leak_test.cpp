@@ -1,0 +1,102 @@
+#include "edmd/leak_test.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/errors.hpp"
+#include "edmd/compression.hpp"
+
+namespace polydem::edmd {
+
+LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
+                                const std::vector<char>& rattler, const LeakTestOptions& options) {
+  if (!(options.collisionsPerParticle > 0.0) || options.blocks < 4 || !(options.pressureTolerance > 0.0) ||
+      !(options.driftFactor > 1.0)) {
+    throw ConfigError(fmt::format(
+        "leak test: collisions per particle {} must be positive, blocks {} at least 4, pressure tolerance {} "
+        "positive and drift factor {} above 1",
+        options.collisionsPerParticle, options.blocks, options.pressureTolerance, options.driftFactor));
+  }
+  const Index n = static_cast<Index>(radius.size());
+  if (!rattler.empty() && static_cast<Index>(rattler.size()) != n) {
+    throw ConfigError(fmt::format("leak test: {} rattler flags for {} spheres", rattler.size(), n));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  HardSphereSystem system(box, position, radius, maxwellBoltzmannVelocities(radius, options.seed), options.system);
+  system.setGrowthRate(0.0);
+  system.setThermalSpeed(1.0);
+  const EventCounts initial = system.counts();
+  const Eigen::Matrix3Xd origin = system.positions();
+
+  LeakTestResult out;
+  const double perBlock = options.collisionsPerParticle / options.blocks;
+  const std::int64_t blockCollisions = std::max<std::int64_t>(1, static_cast<std::int64_t>(perBlock * n));
+  double done = 0.0;
+  for (int b = 0; b < options.blocks; ++b) {
+    system.resetPressureWindow();
+    const EventCounts c = system.run(blockCollisions);
+    system.synchronise();
+    done += static_cast<double>(c.collisions) / static_cast<double>(std::max<Index>(n, 1));
+    LeakBlock block;
+    block.collisionsPerParticle = done;
+    block.pressure = system.pressureWindow().reducedPressure();
+    const Eigen::Matrix3Xd now = system.positions();
+    Index watched = 0;
+    for (Index i = 0; i < n; ++i) {
+      if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
+      const double d = box.minimumImage(now.col(i) - origin.col(i)).norm() / (2.0 * radius[i]);
+      block.meanDisplacement += d;
+      if (d > block.maxDisplacement) {
+        block.maxDisplacement = d;
+        block.maxSphere = i;
+      }
+      ++watched;
+    }
+    if (watched > 0) block.meanDisplacement /= static_cast<double>(watched);
+    out.blocks.push_back(block);
+    if (options.progress) {
+      options.progress(fmt::format(
+          "block {:>3}: {:>9.0f} collisions per particle, p {:.6e} ({:+.2e} from block 1), backbone displacement "
+          "mean {:.3e} max {:.3e} D_i (sphere {})",
+          b + 1, done, block.pressure, block.pressure / out.blocks.front().pressure - 1.0, block.meanDisplacement,
+          block.maxDisplacement, block.maxSphere));
+    }
+    if (c.collisions == 0) break;  // nothing collides (a gas of one sphere): nothing to watch
+  }
+  out.counts = system.counts();
+  out.counts.collisions -= initial.collisions;
+  out.counts.checks -= initial.checks;
+  out.counts.exits -= initial.exits;
+  out.counts.wallCollisions -= initial.wallCollisions;
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  const std::size_t m = out.blocks.size();
+  const std::size_t quarter = std::max<std::size_t>(1, m / 4);
+  double first = 0.0, last = 0.0;
+  for (std::size_t k = 0; k < quarter; ++k) {
+    first += out.blocks[k].pressure;
+    last += out.blocks[m - 1 - k].pressure;
+  }
+  out.pressureChange = last / first - 1.0;
+  const double half = out.blocks[(m - 1) / 2].meanDisplacement, end = out.blocks.back().meanDisplacement;
+  out.driftRatio = half > 0.0 ? end / half : (end > 0.0 ? HardSphereSystem::kInfinity : 1.0);
+  const bool leak = !(out.pressureChange >= -options.pressureTolerance);
+  const bool drift = !(out.driftRatio <= options.driftFactor);
+  out.leaks = leak || drift;
+  out.verdict = fmt::format(
+      "{}: over {:.0f} collisions per particle the block pressure changed by {:+.2e} (last quarter against first; "
+      "a leak below {:.0e}) and the mean backbone displacement grew {:.3g}x over the second half (a drift above "
+      "{:.3g}x) to {:.3e} D_i, largest {:.3e} D_i",
+      leak && drift ? "pressure leak and drift (not jammed)"
+      : leak        ? "pressure leak (not jammed)"
+      : drift       ? "drift away from the start (not jammed)"
+                    : "no pressure leak, no drift (jammed)",
+      done, out.pressureChange, -options.pressureTolerance, out.driftRatio, options.driftFactor, end,
+      out.blocks.back().maxDisplacement);
+  return out;
+}
+
+}  // namespace polydem::edmd

@@ -1,0 +1,60 @@
+#pragma once
+// The pressure-leak test for jamming (seed 001 ch. 9.3.1, shared/seeds/001_3d36564c50aaa2ef.txt:11163-11189,
+// Fig. 9.3; digest §3.6): run plain event-driven dynamics (no growth) on the final packing for thousands
+// of collisions per particle and watch the block-averaged reduced pressure and the displacement of the
+// spheres from where they started. A jammed packing keeps its pressure and its backbone stays inside
+// its jamming polytope (displacements of the order of the jamming gap); a packing that is not truly
+// jammed leaks pressure slowly while its spheres drift away from the initial configuration. The seed
+// used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and N > ~1000, where its
+// LP library was neither accurate nor large enough, and found that the two signals always agreed.
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/box.hpp"
+#include "core/types.hpp"
+#include "edmd/hard_sphere_system.hpp"
+
+namespace polydem::edmd {
+
+struct LeakTestOptions {
+  double collisionsPerParticle = 1e4;  ///< length of the run
+  int blocks = 20;                     ///< pressure and displacements are reported per block
+  /// A leak: the mean pressure of the last quarter of the blocks below that of the first quarter by more
+  /// than this (relative). A jammed packing's block pressures scatter by ~1/sqrt(collisions per block).
+  double pressureTolerance = 1e-3;
+  /// A drift: the mean backbone displacement grows by more than this factor over the second half of the
+  /// run. Inside a jamming polytope it saturates within the first block.
+  double driftFactor = 1.5;
+  std::uint64_t seed = 1;  ///< Maxwell-Boltzmann velocities, thermal speed 1
+  SystemOptions system;
+  std::function<void(const std::string&)> progress;  ///< one line per block
+};
+
+struct LeakBlock {
+  double collisionsPerParticle = 0.0;  ///< at the end of the block, since the start
+  double pressure = 0.0;               ///< reduced pressure PV / (N kT) of the block
+  double meanDisplacement = 0.0;       ///< backbone spheres, from the start, in own diameters
+  double maxDisplacement = 0.0;
+  Index maxSphere = -1;
+};
+
+struct LeakTestResult {
+  std::vector<LeakBlock> blocks;
+  double pressureChange = 0.0;  ///< last-quarter mean / first-quarter mean - 1
+  double driftRatio = 1.0;      ///< mean backbone displacement at the end / at half time
+  bool leaks = false;
+  std::string verdict;
+  EventCounts counts;
+  double seconds = 0.0;
+};
+
+/// Runs the test on the spheres (centres inside the box; `rattler` marks the spheres whose
+/// displacements are not watched, e.g. ContactNetwork::rattler; empty = watch all). Throws ConfigError
+/// for bad options and SimulationError from the dynamics (an overlap or a watchdog).
+LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
+                                const std::vector<char>& rattler, const LeakTestOptions& options);
+
+}  // namespace polydem::edmd

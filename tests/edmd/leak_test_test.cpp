@@ -1,0 +1,93 @@
+// The pressure-leak test (edmd/leak_test.hpp; seed 001 ch. 9.3.1): FCC just below close packing keeps its
+// pressure and its spheres stay in their cages; simple cubic at the same gap is not jammed (its rows
+// slide, seed Table 4.1) and its spheres drift away from the lattice.
+#include "edmd/leak_test.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/errors.hpp"
+
+namespace polydem::edmd {
+namespace {
+
+// m^3 cells of FCC (4 spheres each) or simple cubic, touching spheres of radius 1 shrunk by `gap`.
+Box lattice(bool fcc, int m, double gap, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
+  const double a = fcc ? 2.0 * std::sqrt(2.0) : 2.0;
+  const std::vector<Eigen::Vector3d> basis =
+      fcc ? std::vector<Eigen::Vector3d>{{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}}
+          : std::vector<Eigen::Vector3d>{{0, 0, 0}};
+  x.resize(3, m * m * m * static_cast<int>(basis.size()));
+  int k = 0;
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j)
+      for (int l = 0; l < m; ++l)
+        for (const auto& b : basis) x.col(k++) = a * (Eigen::Vector3d(i, j, l) + b) + Eigen::Vector3d::Constant(0.1);
+  r = Eigen::VectorXd::Constant(k, 1.0 - gap);
+  return Box::cubic(m * a, Boundary::Periodic);
+}
+
+TEST(PressureLeak, FccKeepsItsPressureSimpleCubicLeaks) {
+  LeakTestOptions options;
+  options.collisionsPerParticle = 4000;
+  options.blocks = 8;
+  // 256 spheres and 1.3e5 collisions per block: block pressures scatter by a few 1e-3, so the
+  // tolerance here is wider than the default for 10^4-sphere packings.
+  options.pressureTolerance = 2e-2;
+  for (bool fcc : {true, false}) {
+    SCOPED_TRACE(fcc ? "fcc" : "sc");
+    Eigen::Matrix3Xd x;
+    Eigen::VectorXd r;
+    const Box box = lattice(fcc, fcc ? 4 : 6, 1e-9, x, r);
+    const LeakTestResult result = testPressureLeak(x, r, box, {}, options);
+    ASSERT_EQ(result.blocks.size(), 8u);
+    EXPECT_EQ(result.leaks, !fcc) << result.verdict;
+    const double first = result.blocks.front().pressure;
+    if (fcc) {
+      // Gap 1e-9 of the diameter: p ~ 1e9, and every sphere stays within ~the gap of its site.
+      EXPECT_GT(first, 1e8);
+      EXPECT_LT(std::abs(result.pressureChange), 2e-2) << result.verdict;
+      EXPECT_LT(result.driftRatio, 1.5) << result.verdict;
+      for (const LeakBlock& b : result.blocks) EXPECT_LT(b.maxDisplacement, 1e-8);
+      EXPECT_NE(result.verdict.find("no pressure leak, no drift (jammed)"), std::string::npos) << result.verdict;
+    } else {
+      // The rows slide: within 4000 collisions per particle the spheres wander hundreds of gaps from
+      // their sites, and keep going (the pressure itself falls only slowly at this point).
+      EXPECT_GT(result.driftRatio, 1.5) << result.verdict;
+      EXPECT_GT(result.blocks.back().maxDisplacement, 1e-7);
+      EXPECT_NE(result.verdict.find("not jammed"), std::string::npos) << result.verdict;
+    }
+    EXPECT_GE(result.counts.collisions, static_cast<std::int64_t>(0.99 * 4000 * r.size()));
+  }
+}
+
+TEST(PressureLeak, RattlersAreNotWatchedAndBadOptionsAreRefused) {
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd r;
+  const Box box = lattice(true, 3, 1e-9, x, r);
+  LeakTestOptions options;
+  options.collisionsPerParticle = 200;
+  options.blocks = 4;
+  options.pressureTolerance = 5e-2;
+  // Every sphere flagged: nothing is watched, the displacements stay zero.
+  const LeakTestResult none = testPressureLeak(x, r, box, std::vector<char>(r.size(), 1), options);
+  for (const LeakBlock& b : none.blocks) {
+    EXPECT_EQ(b.meanDisplacement, 0.0);
+    EXPECT_EQ(b.maxSphere, -1);
+  }
+  EXPECT_THROW(testPressureLeak(x, r, box, std::vector<char>(3, 0), options), ConfigError);
+  LeakTestOptions bad = options;
+  bad.blocks = 2;
+  EXPECT_THROW(testPressureLeak(x, r, box, {}, bad), ConfigError);
+  bad = options;
+  bad.collisionsPerParticle = 0.0;
+  EXPECT_THROW(testPressureLeak(x, r, box, {}, bad), ConfigError);
+  bad = options;
+  bad.driftFactor = 1.0;
+  EXPECT_THROW(testPressureLeak(x, r, box, {}, bad), ConfigError);
+}
+
+}  // namespace
+}  // namespace polydem::edmd
