@@ -25,8 +25,9 @@ struct LeakTestOptions {
   /// A leak: the mean pressure of the last quarter of the blocks below that of the first quarter by more
   /// than this (relative). A jammed packing's block pressures scatter by ~1/sqrt(collisions per block).
   double pressureTolerance = 1e-3;
-  /// A drift: the mean backbone displacement grows by more than this factor over the second half of the
-  /// run. Inside a jamming polytope it saturates within the first block.
+  /// A drift: the mean backbone displacement of the last quarter of the blocks exceeds this factor times
+  /// the largest block value of the first half. Inside a jamming polytope it saturates within the first
+  /// block; growth linear in time gives 1.75.
   double driftFactor = 1.5;
   std::uint64_t seed = 1;  ///< Maxwell-Boltzmann velocities, thermal speed 1
   SystemOptions system;
@@ -36,7 +37,9 @@ struct LeakTestOptions {
 struct LeakBlock {
   double collisionsPerParticle = 0.0;  ///< at the end of the block, since the start
   double pressure = 0.0;               ///< reduced pressure PV / (N kT) of the block
-  double meanDisplacement = 0.0;       ///< backbone spheres, from the start, in own diameters
+  /// Backbone spheres, from the start, in own diameters, after subtracting the backbone's mean
+  /// displacement (a rigid translation of the backbone is no unjamming motion).
+  double meanDisplacement = 0.0;
   double maxDisplacement = 0.0;
   Index maxSphere = -1;
 };
@@ -44,7 +47,7 @@ struct LeakBlock {
 struct LeakTestResult {
   std::vector<LeakBlock> blocks;
   double pressureChange = 0.0;  ///< last-quarter mean / first-quarter mean - 1
-  double driftRatio = 1.0;      ///< mean backbone displacement at the end / at half time
+  double driftRatio = 1.0;      ///< last-quarter mean displacement / largest block value of the first half
   bool leaks = false;
   std::string verdict;
   EventCounts counts;

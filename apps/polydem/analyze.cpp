@@ -252,7 +252,7 @@ Runner addAnalyze(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--leak-drift", opt->leakDrift,
-                  "--leak-test: mean backbone displacement growing more than this factor over the second half is a drift")
+                  "--leak-test: a drift: the last quarter's mean backbone displacement above this factor x the first half's largest")
       ->check(CLI::Range(1.0 + 1e-12, 1e300))
       ->capture_default_str();
   cmd->add_flag("--structure-only", opt->structureOnly,
