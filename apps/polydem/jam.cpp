@@ -30,6 +30,7 @@ struct JamOptions {
   std::string sampling = "systematic";
   std::uint64_t seed = 1;
   std::string input;
+  double reopen = 0.0;
   std::string schedule = edmd::formatSchedule(edmd::CompressionOptions{}.schedule);
   double targetPressure = 1e12;
   double targetPhi = 0.0;
@@ -67,6 +68,10 @@ Runner addJam(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "random seed (radii, centres, velocities)")->capture_default_str();
   cmd->add_option("-i,--input", opt->input, "start from this particle file instead of random sequential addition");
+  cmd->add_option("--reopen", opt->reopen,
+                  "with --input, a jammed packing: shrink the radii so that the reduced pressure falls to about this "
+                  "(free volume: factor (1 - 3/P)^(1/3)) and compress again with --schedule, e.g. a slower final stage")
+      ->check(CLI::Range(10.0, 1e300));
   cmd->add_option("--schedule", opt->schedule,
                   "growth stages rate:until-pressure,...; rate = growth speed of the largest radius over the thermal "
                   "speed (the last stage has no end)")
@@ -108,6 +113,7 @@ Runner addJam(CLI::App& app) {
     copt.targetPackingFraction = opt->targetPhi;
     copt.maxCollisionsPerParticle = opt->maxCollisions;
     copt.blockCollisionsPerParticle = opt->block;
+    if (opt->reopen > 0.0 && opt->input.empty()) throw ConfigError("--reopen needs --input (a jammed packing)");
     if (!opt->input.empty() && opt->equivalent != "none") {
       throw ConfigError("--equivalent applies to the random start (--dist); it cannot be combined with --input");
     }
@@ -117,6 +123,18 @@ Runner addJam(CLI::App& app) {
     if (!opt->input.empty()) {
       start = io::readParticles(opt->input);
       origin = opt->input;
+      if (opt->reopen > 0.0) {
+        // Near jamming p ~ 3 / (1 - phi / phi_J) (seed 001 eq. 9.1): at phi_J (the input) x (1 - 3/P) the
+        // pressure is about P. The input must be jammed well beyond P for that to hold.
+        const auto it = start.attributes.find("reduced_pressure");
+        if (it != start.attributes.end() && !(std::stod(it->second) > 10.0 * opt->reopen)) {
+          throw ConfigError(fmt::format("--reopen {}: the input {} has reduced pressure {}, not well above it",
+                                        opt->reopen, opt->input, it->second));
+        }
+        const double factor = std::cbrt(1.0 - 3.0 / opt->reopen);
+        start.radius *= factor;
+        origin += fmt::format(", radii x {:.12g} (reopened to p ~ {:g})", factor, opt->reopen);
+      }
     } else {
       if (opt->count <= 0) throw ConfigError(fmt::format("--count must be > 0, got {}", opt->count));
       const auto dist = makeDistribution(opt->dist);
