@@ -12,6 +12,7 @@
 #include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
 #include "edmd/jamming_test.hpp"
+#include "tests/support/lattices.hpp"
 
 namespace polydem::edmd {
 namespace {
@@ -273,19 +274,9 @@ TEST(JammingTest, LatticesOfTheSeed) {
   ASSERT_TRUE(jammingTestAvailable()) << "built without GLPK: scripts/setup.sh installs libglpk-dev";
   // FCC is collectively jammed, simple cubic is not (seed 001 Table 4.1, :5854-5935).
   auto lattice = [](bool fcc, int m, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
-    const double a = fcc ? 2.0 * std::sqrt(2.0) : 2.0;
-    const std::vector<Eigen::Vector3d> basis =
-        fcc ? std::vector<Eigen::Vector3d>{{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}}
-            : std::vector<Eigen::Vector3d>{{0, 0, 0}};
-    x.resize(3, m * m * m * static_cast<int>(basis.size()));
-    int k = 0;
-    for (int i = 0; i < m; ++i)
-      for (int j = 0; j < m; ++j)
-        for (int l = 0; l < m; ++l)
-          for (const auto& b : basis) x.col(k++) = a * (Eigen::Vector3d(i, j, l) + b) + Eigen::Vector3d::Constant(0.1);
-    r = Eigen::VectorXd::Ones(k);
-    return Box::cubic(m * a, Boundary::Periodic);
+    return testing::latticePacking(fcc, m, 0.0, x, r);
   };
+
   for (bool fcc : {true, false}) {
     SCOPED_TRACE(fcc ? "fcc" : "sc");
     Eigen::Matrix3Xd x;

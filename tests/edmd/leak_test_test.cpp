@@ -9,24 +9,13 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "tests/support/lattices.hpp"
 
 namespace polydem::edmd {
 namespace {
 
-// m^3 cells of FCC (4 spheres each) or simple cubic, touching spheres of radius 1 shrunk by `gap`.
 Box lattice(bool fcc, int m, double gap, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
-  const double a = fcc ? 2.0 * std::sqrt(2.0) : 2.0;
-  const std::vector<Eigen::Vector3d> basis =
-      fcc ? std::vector<Eigen::Vector3d>{{0, 0, 0}, {0.5, 0.5, 0}, {0.5, 0, 0.5}, {0, 0.5, 0.5}}
-          : std::vector<Eigen::Vector3d>{{0, 0, 0}};
-  x.resize(3, m * m * m * static_cast<int>(basis.size()));
-  int k = 0;
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j < m; ++j)
-      for (int l = 0; l < m; ++l)
-        for (const auto& b : basis) x.col(k++) = a * (Eigen::Vector3d(i, j, l) + b) + Eigen::Vector3d::Constant(0.1);
-  r = Eigen::VectorXd::Constant(k, 1.0 - gap);
-  return Box::cubic(m * a, Boundary::Periodic);
+  return testing::latticePacking(fcc, m, gap, x, r);
 }
 
 TEST(PressureLeak, FccKeepsItsPressureSimpleCubicLeaks) {
