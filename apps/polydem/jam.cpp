@@ -252,6 +252,15 @@ Runner addJam(CLI::App& app) {
                net.isostaticExcess());
     fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
                system.maxOverlapSeen());
+    if (net.isostaticExcess() < 0 && pressure >= 1e9) {
+      // A hypostatic backbone at high pressure: floppy modes left by too fast a late stage (seed 001
+      // :11228-11244; docs/edmd.md, pressure-leak test against the final growth rate).
+      fmt::print(
+          "note: the backbone is hypostatic: the late stages ran too fast for it to find its contacts; in our runs "
+          "packings passed `polydem analyze --leak-test` when four decades of pressure beyond p ~ 1e4 ran at 3e-5 or slower, and "
+          "`polydem jam -i {} --reopen 1e8 --schedule 3e-5` compresses this one again that way\n",
+          opt->output.empty() ? std::string("PACKING") : opt->output);
+    }
 
     if (!opt->output.empty()) {
       io::ParticleData out;
