@@ -18,18 +18,6 @@ double seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-EventCounts difference(const EventCounts& a, const EventCounts& b) {
-  EventCounts d;
-  d.collisions = a.collisions - b.collisions;
-  d.wallCollisions = a.wallCollisions - b.wallCollisions;
-  d.checks = a.checks - b.checks;
-  d.exits = a.exits - b.exits;
-  d.rebuilds = a.rebuilds - b.rebuilds;
-  d.relocatedLists = a.relocatedLists - b.relocatedLists;
-  d.missed = a.missed - b.missed;
-  return d;
-}
-
 double parseNumber(const std::string& word, const std::string& text) {
   try {
     std::size_t used = 0;
@@ -127,7 +115,7 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
     const PressureWindow window = system.pressureWindow();
     system.setThermalSpeed(options.thermalSpeed);  // synchronises
 
-    const EventCounts all = difference(system.counts(), initial);
+    const EventCounts all = system.counts() - initial;
     progress.packingFraction = system.packingFraction();
     progress.pressure = window.reducedPressure();
     progress.jammingEstimate = jammingDensityEstimate(progress.packingFraction, progress.pressure);
@@ -165,7 +153,7 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
   }
   system.setGrowthRate(0.0);
   result.last = progress;
-  result.counts = difference(system.counts(), initial);
+  result.counts = system.counts() - initial;
   result.wallSeconds = seconds(start);
   return result;
 }
@@ -193,7 +181,7 @@ EquilibriumRun runAtFixedDensity(HardSphereSystem& system, double collisionsPerP
     if (c.events() == 0) break;
   }
   out.wallSeconds = std::max(seconds(start), 1e-9);
-  out.counts = difference(system.counts(), initial);
+  out.counts = system.counts() - initial;
   out.pressure = system.pressureWindow().reducedPressure();
   out.collisionsPerSecond = static_cast<double>(out.counts.collisions) / out.wallSeconds;
   out.eventsPerSecond = static_cast<double>(out.counts.events()) / out.wallSeconds;

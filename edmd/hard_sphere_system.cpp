@@ -773,15 +773,7 @@ EventCounts HardSphereSystem::run(std::int64_t collisions, double duration) {
     if (te == kInfinity) break;
     process(i);
   }
-  EventCounts done = total_;
-  done.collisions -= before.collisions;
-  done.wallCollisions -= before.wallCollisions;
-  done.checks -= before.checks;
-  done.exits -= before.exits;
-  done.rebuilds -= before.rebuilds;
-  done.relocatedLists -= before.relocatedLists;
-  done.missed -= before.missed;
-  return done;
+  return total_ - before;
 }
 
 bool HardSphereSystem::step() {

@@ -133,6 +133,12 @@ struct EventCounts {
   std::int64_t relocatedLists = 0;  ///< neighbour lists moved to a larger slot (out of room)
   std::int64_t missed = 0;          ///< predicted collisions found separating when processed (grazing)
   std::int64_t events() const { return collisions + wallCollisions + checks + exits; }
+  /// Counts between two snapshots (later - earlier).
+  friend EventCounts operator-(const EventCounts& a, const EventCounts& b) {
+    return {a.collisions - b.collisions, a.wallCollisions - b.wallCollisions, a.checks - b.checks,
+            a.exits - b.exits,           a.rebuilds - b.rebuilds,             a.relocatedLists - b.relocatedLists,
+            a.missed - b.missed};
+  }
 };
 
 /// One processed binary collision, in the caller's particle numbering (i < j).

@@ -76,11 +76,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
     }
     if (c.collisions == 0) break;  // nothing collides (a gas of one sphere): nothing to watch
   }
-  out.counts = system.counts();
-  out.counts.collisions -= initial.collisions;
-  out.counts.checks -= initial.checks;
-  out.counts.exits -= initial.exits;
-  out.counts.wallCollisions -= initial.wallCollisions;
+  out.counts = system.counts() - initial;
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   const std::size_t m = out.blocks.size();
