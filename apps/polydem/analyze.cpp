@@ -278,6 +278,9 @@ Runner addAnalyze(CLI::App& app) {
   return [opt, velocityOption]() {
     const io::ParticleData data = io::readParticles(opt->input);
     const Index n = data.count();
+    if (opt->removeSphere >= n) {
+      throw ConfigError(fmt::format("--remove {}: the packing has {} spheres", opt->removeSphere, n));
+    }
     const SphereView spheres{data.position, data.radius};
     if (opt->structureOnly) {
       double volume = 0.0;
@@ -348,9 +351,6 @@ Runner addAnalyze(CLI::App& app) {
     if (opt->certify) {
       edmd::ContactNetwork tested = net;
       if (opt->removeSphere >= 0) {
-        if (opt->removeSphere >= n) {
-          throw ConfigError(fmt::format("--remove {}: the packing has {} spheres", opt->removeSphere, n));
-        }
         // The sphere disappears from the test (no constraints from it); the rattlers stay those of the
         // intact packing, so its neighbours keep being tested.
         tested.rattler[static_cast<std::size_t>(opt->removeSphere)] = 1;
@@ -412,9 +412,6 @@ Runner addAnalyze(CLI::App& app) {
       Eigen::VectorXd r = data.radius;
       std::vector<char> watched = net.rattler;
       if (opt->removeSphere >= 0) {
-        if (opt->removeSphere >= n) {
-          throw ConfigError(fmt::format("--remove {}: the packing has {} spheres", opt->removeSphere, n));
-        }
         const Index k = opt->removeSphere, last = n - 1;
         x.col(k) = x.col(last);
         r[k] = r[last];
