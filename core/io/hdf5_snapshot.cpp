@@ -25,9 +25,7 @@
 
 #include "core/errors.hpp"
 
-#if POLYDEM_WITH_HDF5
-#include <hdf5.h>
-#endif
+#include "core/io/hdf5_handle.hpp"
 
 namespace polydem::io {
 
@@ -54,60 +52,10 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
 
 namespace {
 
+using hdf5::Handle;
+using hdf5::QuietErrors;
+
 constexpr char kAxis[] = "xyz";
-
-/// Owns one hid_t and closes it with the matching H5?close.
-class Handle {
- public:
-  using Closer = herr_t (*)(hid_t);
-  Handle() = default;
-  Handle(hid_t id, Closer close) : id_(id), close_(close) {}
-  Handle(Handle&& other) noexcept : id_(std::exchange(other.id_, H5I_INVALID_HID)), close_(other.close_) {}
-  Handle& operator=(Handle&& other) noexcept {
-    if (this != &other) {
-      reset();
-      id_ = std::exchange(other.id_, H5I_INVALID_HID);
-      close_ = other.close_;
-    }
-    return *this;
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  ~Handle() { reset(); }
-
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
-  /// Close now and report whether closing succeeded (closing a file flushes it).
-  bool close() {
-    const herr_t status = id_ >= 0 ? close_(id_) : 0;
-    id_ = H5I_INVALID_HID;
-    return status >= 0;
-  }
-  void reset() {
-    if (id_ >= 0) close_(id_);
-    id_ = H5I_INVALID_HID;
-  }
-
- private:
-  hid_t id_ = H5I_INVALID_HID;
-  Closer close_ = nullptr;
-};
-
-/// Turns off HDF5's automatic error printing for its lifetime; we report errors as exceptions.
-class QuietErrors {
- public:
-  QuietErrors() {
-    H5Eget_auto2(H5E_DEFAULT, &function_, &clientData_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  QuietErrors(const QuietErrors&) = delete;
-  QuietErrors& operator=(const QuietErrors&) = delete;
-  ~QuietErrors() { H5Eset_auto2(H5E_DEFAULT, function_, clientData_); }
-
- private:
-  H5E_auto2_t function_ = nullptr;
-  void* clientData_ = nullptr;
-};
 
 /// The innermost description on HDF5's error stack, as " (HDF5: ...)", or "" if the stack is empty.
 /// Clears the stack.

@@ -35,6 +35,7 @@ struct ParticleData {
   Eigen::Matrix3Xd position;                  ///< 3 x N
   Eigen::VectorXd radius;                     ///< N
   std::optional<Eigen::Matrix3Xd> velocity;   ///< 3 x N; present if the file had velocities
+  std::optional<Eigen::Matrix3Xd> angularVelocity;  ///< 3 x N, rad/s; present if the file had them
   std::vector<Index> id;                      ///< N, unique; text files: 0..N-1 in line order
   double time = 0.0;                          ///< s
   std::map<std::string, std::string> attributes;  ///< scene parameters, free-form key -> value

@@ -1,0 +1,1 @@
+# polydem relax: CLI tests (issue 15). See cli_helpers.cmake.
