@@ -9,6 +9,12 @@ function(polydem_target_defaults target)
   if(POLYDEM_NATIVE)
     target_compile_options(${target} PUBLIC -march=native)
   endif()
+  if(POLYDEM_SANITIZE)
+    # Every UB report is fatal (no recovery), so a sanitizer finding fails its test.
+    target_compile_options(${target} PUBLIC -fsanitize=address,undefined -fno-sanitize-recover=undefined
+                                            -fno-omit-frame-pointer)
+    target_link_options(${target} PUBLIC -fsanitize=address,undefined)
+  endif()
   if(POLYDEM_ENABLE_ASSERTS)
     target_compile_definitions(${target} PUBLIC POLYDEM_ENABLE_ASSERTS=1)
   endif()
