@@ -64,6 +64,7 @@ void AabbTree::refit(Index n) {
     nd.hi[k] = std::max(a.hi[k], b.hi[k]);
   }
   nd.rmax = std::max(a.rmax, b.rmax);
+  nd.maxIndex = std::max(a.maxIndex, b.maxIndex);
   height_[static_cast<std::size_t>(n)] =
       1 + std::max(height_[static_cast<std::size_t>(nd.child1)], height_[static_cast<std::size_t>(nd.child2)]);
 }
@@ -83,6 +84,7 @@ Index AabbTree::buildRange(const SphereView& spheres, Index first, Index last) {
     Node& nd = nodes_[static_cast<std::size_t>(n)];
     nd.child1 = -1;
     nd.child2 = i;
+    nd.maxIndex = i;
     nd.rmax = spheres.radius[i];
     setFatBox(n, spheres.centre.col(i).data());
     leafOf_[static_cast<std::size_t>(i)] = n;
@@ -304,7 +306,7 @@ void AabbTree::query(const SphereView& spheres, Index i, const double* shift, do
     const Index id = stack[--top];
     const Node& nd = nodes_[static_cast<std::size_t>(id)];
     const bool leaf = nd.child1 < 0;
-    if (leaf && (laterOnly ? nd.child2 <= i : nd.child2 == i)) continue;
+    if (laterOnly ? nd.maxIndex <= i : leaf && nd.child2 == i) continue;
     if constexpr (kCount) ++visits;
     double d2 = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -415,6 +417,7 @@ void AabbTree::validate(const SphereView& spheres) const {
       if (leafOf_[static_cast<std::size_t>(j)] != id) throw std::logic_error(fmt::format("aabb-tree: leafOf {} stale", j));
       if (hgt != 0) throw std::logic_error(fmt::format("aabb-tree: leaf {} has height {}", id, hgt));
       if (nd.rmax != spheres.radius[j]) throw std::logic_error(fmt::format("aabb-tree: leaf radius of {} wrong", j));
+      if (nd.maxIndex != j) throw std::logic_error(fmt::format("aabb-tree: leaf index of {} wrong", j));
       for (int k = 0; k < 3; ++k) {
         const double x = spheres.centre(k, j);
         if (x < nd.lo[k] || x > nd.hi[k]) throw std::logic_error(fmt::format("aabb-tree: sphere {} left its fat box", j));
@@ -429,6 +432,7 @@ void AabbTree::validate(const SphereView& spheres) const {
         if (cn.lo[k] < nd.lo[k] || cn.hi[k] > nd.hi[k]) throw std::logic_error(fmt::format("aabb-tree: node {} unbounded", id));
       }
       if (cn.rmax > nd.rmax) throw std::logic_error(fmt::format("aabb-tree: r_max of node {} too small", id));
+      if (cn.maxIndex > nd.maxIndex) throw std::logic_error(fmt::format("aabb-tree: max index of node {} too small", id));
       todo.push_back(c);
     }
     const int ha = height_[static_cast<std::size_t>(a)], hb = height_[static_cast<std::size_t>(b)];

@@ -21,7 +21,9 @@
 //
 // build() is a bulk build: Morton order of the centres, split at the median, which is balanced, so
 // incremental updates start from a valid AVL tree. findPairs: one stack-based traversal per sphere
-// reporting j > i, with images of the query on periodic axes. Nodes live in a pool with a free
+// reporting j > i (each node knows its largest sphere index, so subtrees holding only j < i are
+// skipped; on index-sorted input that is most of the tree behind the query), with images of the
+// query on periodic axes. Nodes live in a pool with a free
 // list: steady-state updates and queries do not allocate.
 #include <cstdint>
 #include <vector>
@@ -60,6 +62,7 @@ class AabbTree final : public BroadPhase {
     double rmax;          // largest radius below (m)
     Index child1;         // -1 for a leaf
     Index child2;         // leaf: the sphere
+    Index maxIndex;       // largest sphere index below: findPairs skips subtrees with no j > i
   };
   bool isLeaf(Index n) const { return nodes_[static_cast<std::size_t>(n)].child1 < 0; }
   Index allocate();
