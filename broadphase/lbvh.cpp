@@ -200,7 +200,7 @@ void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   if (quality_ > rebuildFactor_ * builtQuality_) doBuild(spheres);
 }
 
-void Lbvh::imagesOf(const double* x, double radius, Images& out) const {
+void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& out) const {
   double shifts[3][3];
   int count[3];
   for (int k = 0; k < 3; ++k) {
@@ -208,8 +208,8 @@ void Lbvh::imagesOf(const double* x, double radius, Images& out) const {
     shifts[k][count[k]++] = 0.0;
     if (!box_.periodic(k)) continue;
     // Image at x + L reaches spheres near L; image at x - L reaches spheres near 0.
-    if (x[k] - radius < 0.0) shifts[k][count[k]++] = box_.length(k);
-    if (x[k] + radius > box_.length(k)) shifts[k][count[k]++] = -box_.length(k);
+    if (lo[k] - radius < 0.0) shifts[k][count[k]++] = box_.length(k);
+    if (hi[k] + radius > box_.length(k)) shifts[k][count[k]++] = -box_.length(k);
   }
   out.count = 0;
   for (int a = 0; a < count[0]; ++a)
@@ -256,35 +256,94 @@ void Lbvh::query(const double* x, const double* shift, double ri, double reach, 
   }
 }
 
+void Lbvh::candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const {
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = group.lo[k] + shift[k];
+    hi[k] = group.hi[k] + shift[k];
+  }
+  const double base = group.rmax + skin_ + tolerance_;
+  Index* stack = stack_.data();
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Index id = stack[--top];
+    const Node& nd = nodes_[static_cast<std::size_t>(id)];
+    if (nd.end <= minEnd) continue;  // at or before the group's own leaf in Morton order
+    ++visits;
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = std::max(std::max(nd.lo[k] - hi[k], lo[k] - nd.hi[k]), 0.0);
+      d2 += d * d;
+    }
+    const double limit = base + nd.rmax;
+    if (d2 > limit * limit) continue;
+    if (isLeaf(nd)) {
+      candidates_.push_back(id);
+    } else {
+      stack[top++] = nd.right;
+      stack[top++] = id + 1;
+    }
+  }
+}
+
 template <bool kCount>
 void Lbvh::pairsImpl(std::vector<Pair>& out) const {
   const Index n = static_cast<Index>(sorted_.size());
   const double* p = packed_.data();
   const double rootRadius = nodes_.front().rmax;
   std::uint64_t tests = 0, visits = 0;
+  auto emit = [&](Index s, Index t) {
+    const Index i = sorted_[static_cast<std::size_t>(s)], j = sorted_[static_cast<std::size_t>(t)];
+    out.push_back(i < j ? Pair{i, j} : Pair{j, i});
+  };
   Images images;
-  for (Index s = 0; s + 1 < n; ++s) {
-    const double* x = p + 4 * static_cast<std::ptrdiff_t>(s);
-    const Index i = sorted_[static_cast<std::size_t>(s)];
-    imagesOf(x, x[3] + rootRadius + skin_ + tolerance_, images);
-    if (images.count == 1) {
-      query<kCount>(x, images.shift[0], x[3], skin_, s + 1, tests, visits, [&](Index t) {
-        const Index j = sorted_[static_cast<std::size_t>(t)];
-        out.push_back(i < j ? Pair{i, j} : Pair{j, i});
-      });
-      continue;
+  for (const Index leafId : leafNode_) {
+    const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
+    const Index first = -1 - leaf.right, end = leaf.end;
+    for (Index s = first; s < end; ++s) {  // pairs inside the leaf
+      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+      for (Index t = s + 1; t < end; ++t) {
+        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+        if constexpr (kCount) ++tests;
+        if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+      }
     }
-    // Several images: a sphere reached through two of them (possible only when a periodic length is
-    // exactly 2 cut-offs) must be reported once.
-    found_.clear();
-    for (int k = 0; k < images.count; ++k) {
-      query<kCount>(x, images.shift[k], x[3], skin_, s + 1, tests, visits, [&](Index t) { found_.push_back(t); });
+    if (end == n) continue;
+    imagesOf(leaf.lo, leaf.hi, leaf.rmax + rootRadius + skin_ + tolerance_, images);
+    candidates_.clear();
+    for (int k = 0; k < images.count; ++k) candidateLeaves(leaf, images.shift[k], end, visits);
+    if (images.count > 1) {
+      // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
+      std::sort(candidates_.begin(), candidates_.end());
+      candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
     }
-    std::sort(found_.begin(), found_.end());
-    found_.erase(std::unique(found_.begin(), found_.end()), found_.end());
-    for (Index t : found_) {
-      const Index j = sorted_[static_cast<std::size_t>(t)];
-      out.push_back(i < j ? Pair{i, j} : Pair{j, i});
+    for (Index s = first; s < end; ++s) {
+      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+      const double base = ps[3] + skin_ + tolerance_;
+      for (const Index c : candidates_) {
+        const Node& cn = nodes_[static_cast<std::size_t>(c)];
+        // The sphere's own bound on the candidate leaf, through any of the images.
+        if constexpr (kCount) ++visits;
+        bool near = false;
+        for (int k = 0; k < images.count && !near; ++k) {
+          const double* shift = images.shift[k];
+          double d2 = 0.0;
+          for (int a = 0; a < 3; ++a) {
+            const double q = ps[a] + shift[a];
+            const double d = std::max(std::max(cn.lo[a] - q, q - cn.hi[a]), 0.0);
+            d2 += d * d;
+          }
+          const double limit = base + cn.rmax;
+          near = d2 <= limit * limit;
+        }
+        if (!near) continue;
+        for (Index t = -1 - cn.right; t < cn.end; ++t) {
+          const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+          if constexpr (kCount) ++tests;
+          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+        }
+      }
     }
   }
   if constexpr (kCount) {
@@ -314,7 +373,7 @@ void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<
   const Index slot = slotOf_[static_cast<std::size_t>(i)];
   const double* x = packed_.data() + 4 * static_cast<std::ptrdiff_t>(slot);
   Images images;
-  imagesOf(x, x[3] + nodes_.front().rmax + reach + tolerance_, images);
+  imagesOf(x, x, x[3] + nodes_.front().rmax + reach + tolerance_, images);
   std::uint64_t tests = 0, visits = 0;
   for (int k = 0; k < images.count; ++k) {
     query<false>(x, images.shift[k], x[3], reach, 0, tests, visits, [&](Index t) {
@@ -330,7 +389,7 @@ std::size_t Lbvh::memoryBytes() const {
          sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) +
          static_cast<std::size_t>(packed_.size()) * sizeof(double) + keys_.capacity() * sizeof(keys_[0]) +
          leafKey_.capacity() * sizeof(std::uint64_t) + (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) +
-         work_.capacity() * sizeof(Pending) + stack_.capacity() * sizeof(Index) + found_.capacity() * sizeof(Index);
+         work_.capacity() * sizeof(Pending) + stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
 }
 
 std::string Lbvh::describe() const {

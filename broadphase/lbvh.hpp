@@ -11,10 +11,14 @@
 // below it; sphere i visits a node when its centre is within r_i + r_max(node) + skin of the box
 // (Howard et al., Comput. Phys. Commun. 203 (2016) 45, Sec. 3: one tree, per-particle search radius).
 //
-// findPairs: one stack-based traversal per sphere in Morton order that only looks at spheres later
-// in that order (every node knows the end of its slot range, so earlier subtrees are skipped whole),
-// which finds each pair once. Periodic boundaries: the query sphere is imaged (up to 8 images near
-// a corner), never the tree. Candidates are filtered with spheresWithinReach on the minimum image.
+// findPairs: one stack-based traversal per leaf, with the leaf's box and largest radius, that only
+// looks at leaves later in Morton order (every node knows the end of its slot range, so earlier
+// subtrees are skipped whole), so each pair is found once. It collects the candidate leaves; each
+// sphere of the leaf then tests every candidate leaf's box with its own radius before the pair tests,
+// which keeps the per-sphere bound of Howard et al. at a 1/leafSize share of the traversals.
+// findNeighbours(i) is one traversal for sphere i alone. Periodic boundaries: the query (leaf box or
+// sphere) is imaged (up to 8 images near a corner), never the tree. Candidates are filtered with
+// spheresWithinReach on the minimum image.
 //
 // update(): refit. Moved spheres' leaves and their ancestors are re-bounded (O(|moved| log M)); the
 // topology is kept. Rebuild rule: the tree is rebuilt from scratch when the summed volume of the
@@ -68,13 +72,16 @@ class Lbvh final : public BroadPhase {
   void boundInternal(Index node);
   double nodeCost(const Node& n) const;
   void refitAll();
-  /// Periodic images of a query centre x that may reach spheres within `radius` of it: shifts[k] for
-  /// k < count (the first is the unshifted centre).
+  /// Periodic images of a query box [lo, hi] (a centre: lo = hi) that may reach spheres within
+  /// `radius` of it: shifts[k] for k < count (the first is the unshifted query).
   struct Images {
     double shift[27][3];
     int count;
   };
-  void imagesOf(const double* x, double radius, Images& out) const;
+  void imagesOf(const double* lo, const double* hi, double radius, Images& out) const;
+  /// Leaves after slot range end `minEnd` whose box may hold a sphere within reach of a sphere of
+  /// `group` (imaged by `shift`): appended to candidates_.
+  void candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const;
   /// Traverse for the query centre x (original coordinates) of radius ri imaged by `shift`; visit(t)
   /// is called for every slot t >= minSlot whose sphere is within `reach` (minimum image).
   template <bool kCount, class Visit>
@@ -108,7 +115,7 @@ class Lbvh final : public BroadPhase {
   std::vector<Pending> work_;  // pre-order relayout stack
   // Query scratch.
   mutable std::vector<Index> stack_;
-  mutable std::vector<Index> found_;
+  mutable std::vector<Index> candidates_;
 };
 
 }  // namespace polydem::broadphase
