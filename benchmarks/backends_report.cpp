@@ -15,6 +15,9 @@
 //
 //   polydem_backends_report [--backends a,b] [--repeat 5] [--moved 0.01,0.1] [--skin-factor 0.1]
 //                           [--budget 60] [--csv out.csv] FILE...
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <ctime>
@@ -25,9 +28,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "broadphase/linked_cell.hpp"
 #include "broadphase/registry.hpp"
@@ -118,7 +118,8 @@ double linkedCellTests(const broadphase::LinkedCell& lc, const io::ParticleData&
         for (int dz = -1; dz <= 1; ++dz)
           for (int dy = -1; dy <= 1; ++dy)
             for (int dx = -1; dx <= 1; ++dx) {
-              const int q[3] = {(x + dx + cells[0]) % cells[0], (y + dy + cells[1]) % cells[1], (z + dz + cells[2]) % cells[2]};
+              const int q[3] = {(x + dx + cells[0]) % cells[0], (y + dy + cells[1]) % cells[1],
+                                (z + dz + cells[2]) % cells[2]};
               around += count[index(q[0], q[1], q[2])];
             }
         tests += 0.5 * own * around;

@@ -1,12 +1,12 @@
 // Dynamic AABB tree broad phase; design notes and references in aabb_tree.hpp.
 #include "broadphase/aabb_tree.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/morton.hpp"
@@ -119,7 +119,8 @@ void AabbTree::doBuild(const SphereView& spheres) {
   parent_.reserve(nodes_.capacity());
   height_.reserve(nodes_.capacity());
   keys_.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
+  for (Index i = 0; i < n; ++i)
+    keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
   std::sort(keys_.begin(), keys_.end());
   root_ = buildRange(spheres, 0, n);
   if (stack_.size() < static_cast<std::size_t>(height()) + 2) stack_.resize(static_cast<std::size_t>(height()) + 2);
@@ -148,7 +149,10 @@ void AabbTree::rotate(Index a) {
       const Index grand = side == 0 ? k.child1 : k.child2;
       const Index other = side == 0 ? k.child2 : k.child1;
       const int keepHeight = 1 + std::max(h(out), h(other));
-      Move m{keep, out, grand, other,
+      Move m{keep,
+             out,
+             grand,
+             other,
              area(k) - unionArea(nodes_[static_cast<std::size_t>(out)], nodes_[static_cast<std::size_t>(other)]),
              std::abs(h(out) - h(other)) <= 1 && std::abs(h(grand) - keepHeight) <= 1,
              std::abs(h(grand) - keepHeight)};
@@ -414,25 +418,30 @@ void AabbTree::validate(const SphereView& spheres) const {
       const Index j = nd.child2;
       if (j < 0 || j >= n) throw std::logic_error(fmt::format("aabb-tree: leaf {} holds sphere {}", id, j));
       ++seen[static_cast<std::size_t>(j)];
-      if (leafOf_[static_cast<std::size_t>(j)] != id) throw std::logic_error(fmt::format("aabb-tree: leafOf {} stale", j));
+      if (leafOf_[static_cast<std::size_t>(j)] != id)
+        throw std::logic_error(fmt::format("aabb-tree: leafOf {} stale", j));
       if (hgt != 0) throw std::logic_error(fmt::format("aabb-tree: leaf {} has height {}", id, hgt));
       if (nd.rmax != spheres.radius[j]) throw std::logic_error(fmt::format("aabb-tree: leaf radius of {} wrong", j));
       if (nd.maxIndex != j) throw std::logic_error(fmt::format("aabb-tree: leaf index of {} wrong", j));
       for (int k = 0; k < 3; ++k) {
         const double x = spheres.centre(k, j);
-        if (x < nd.lo[k] || x > nd.hi[k]) throw std::logic_error(fmt::format("aabb-tree: sphere {} left its fat box", j));
+        if (x < nd.lo[k] || x > nd.hi[k])
+          throw std::logic_error(fmt::format("aabb-tree: sphere {} left its fat box", j));
       }
       continue;
     }
     const Index a = nd.child1, b = nd.child2;
     for (Index c : {a, b}) {
-      if (parent_[static_cast<std::size_t>(c)] != id) throw std::logic_error(fmt::format("aabb-tree: parent of {} wrong", c));
+      if (parent_[static_cast<std::size_t>(c)] != id)
+        throw std::logic_error(fmt::format("aabb-tree: parent of {} wrong", c));
       const Node& cn = nodes_[static_cast<std::size_t>(c)];
       for (int k = 0; k < 3; ++k) {
-        if (cn.lo[k] < nd.lo[k] || cn.hi[k] > nd.hi[k]) throw std::logic_error(fmt::format("aabb-tree: node {} unbounded", id));
+        if (cn.lo[k] < nd.lo[k] || cn.hi[k] > nd.hi[k])
+          throw std::logic_error(fmt::format("aabb-tree: node {} unbounded", id));
       }
       if (cn.rmax > nd.rmax) throw std::logic_error(fmt::format("aabb-tree: r_max of node {} too small", id));
-      if (cn.maxIndex > nd.maxIndex) throw std::logic_error(fmt::format("aabb-tree: max index of node {} too small", id));
+      if (cn.maxIndex > nd.maxIndex)
+        throw std::logic_error(fmt::format("aabb-tree: max index of node {} too small", id));
       todo.push_back(c);
     }
     const int ha = height_[static_cast<std::size_t>(a)], hb = height_[static_cast<std::size_t>(b)];
@@ -440,7 +449,8 @@ void AabbTree::validate(const SphereView& spheres) const {
     if (std::abs(ha - hb) > 1) throw std::logic_error(fmt::format("aabb-tree: node {} out of AVL balance", id));
   }
   for (Index j = 0; j < n; ++j) {
-    if (seen[static_cast<std::size_t>(j)] != 1) throw std::logic_error(fmt::format("aabb-tree: sphere {} in {} leaves", j, seen[static_cast<std::size_t>(j)]));
+    if (seen[static_cast<std::size_t>(j)] != 1)
+      throw std::logic_error(fmt::format("aabb-tree: sphere {} in {} leaves", j, seen[static_cast<std::size_t>(j)]));
   }
   std::size_t free = 0;
   for (Index f = freeList_; f >= 0; f = parent_[static_cast<std::size_t>(f)]) ++free;

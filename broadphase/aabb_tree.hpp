@@ -11,13 +11,13 @@
 // nothing; otherwise its leaf is removed and re-inserted around the new centre, O(log N) each, so
 // update() is O(|moved| log N). Insertion descends to the leaf sibling by the branch cost of Catto
 // 2019 (the child whose union with the new leaf adds the least surface area; surface area of the
-// node box dilated by its r_max), always down to a leaf so that AVL rebalancing applies. On the way back up every ancestor is re-bounded and may be rotated: one of
-// its children swaps with a grandchild (the four tree rotations of Kopta et al., "Fast, effective
-// BVH updates for animated scenes", I3D 2012; Bittner, Hapala & Havran, Comput. Graph. Forum 32 (2013)
-// 85 optimise trees by such local moves). Rotation heuristic: a node whose children's heights
-// differ by more than one takes the rotation that restores the AVL balance (what Box2D's Balance
-// achieves), so the height stays O(log N); otherwise it takes the rotation that most reduces the
-// area of the rebuilt child, among those that keep the AVL balance.
+// node box dilated by its r_max), always down to a leaf so that AVL rebalancing applies. On the way back up every
+// ancestor is re-bounded and may be rotated: one of its children swaps with a grandchild (the four tree rotations of
+// Kopta et al., "Fast, effective BVH updates for animated scenes", I3D 2012; Bittner, Hapala & Havran, Comput. Graph.
+// Forum 32 (2013) 85 optimise trees by such local moves). Rotation heuristic: a node whose children's heights differ by
+// more than one takes the rotation that restores the AVL balance (what Box2D's Balance achieves), so the height stays
+// O(log N); otherwise it takes the rotation that most reduces the area of the rebuilt child, among those that keep the
+// AVL balance.
 //
 // build() is a bulk build: Morton order of the centres, split at the median, which is balanced, so
 // incremental updates start from a valid AVL tree. findPairs: one stack-based traversal per sphere
@@ -92,10 +92,10 @@ class AabbTree final : public BroadPhase {
   double margin_ = 0.0;     // skin / 2 (m)
   double tolerance_ = 0.0;  // absolute slack on box tests (m): rounding of imaged coordinates
   Index root_ = -1;
-  Index freeList_ = -1;     // free nodes chained through parent_
+  Index freeList_ = -1;  // free nodes chained through parent_
   std::vector<Node> nodes_;
   std::vector<Index> parent_;
-  std::vector<int> height_;  // -1 for a free node
+  std::vector<int> height_;    // -1 for a free node
   std::vector<Index> leafOf_;  // leaf node per sphere
   std::uint64_t reinsertions_ = 0, rotations_ = 0;
   // Build scratch.

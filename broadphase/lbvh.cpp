@@ -1,13 +1,13 @@
 // Linear BVH broad phase; design notes and references in lbvh.hpp.
 #include "broadphase/lbvh.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/morton.hpp"
@@ -100,7 +100,8 @@ void Lbvh::doBuild(const SphereView& spheres) {
 
   // Morton order; ties broken by index so the tree does not depend on the sort's stability.
   keys_.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
+  for (Index i = 0; i < n; ++i)
+    keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
   std::sort(keys_.begin(), keys_.end());
   for (Index s = 0; s < n; ++s) {
     const Index i = keys_[static_cast<std::size_t>(s)].second;
@@ -388,14 +389,16 @@ std::size_t Lbvh::memoryBytes() const {
   return nodes_.capacity() * sizeof(Node) + parent_.capacity() * sizeof(Index) + leafNode_.capacity() * sizeof(Index) +
          sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) +
          static_cast<std::size_t>(packed_.size()) * sizeof(double) + keys_.capacity() * sizeof(keys_[0]) +
-         leafKey_.capacity() * sizeof(std::uint64_t) + (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) +
-         work_.capacity() * sizeof(Pending) + stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
+         leafKey_.capacity() * sizeof(std::uint64_t) +
+         (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) + work_.capacity() * sizeof(Pending) +
+         stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
 }
 
 std::string Lbvh::describe() const {
-  return fmt::format("lbvh {} spheres, {} leaves of <= {}, depth {}, cost proxy {:.3g}x of the last build (rebuild "
-                     "above {:g}x), {} builds",
-                     sorted_.size(), leafNode_.size(), leafSize_, depth_, qualityRatio(), rebuildFactor_, rebuilds_);
+  return fmt::format(
+      "lbvh {} spheres, {} leaves of <= {}, depth {}, cost proxy {:.3g}x of the last build (rebuild "
+      "above {:g}x), {} builds",
+      sorted_.size(), leafNode_.size(), leafSize_, depth_, qualityRatio(), rebuildFactor_, rebuilds_);
 }
 
 void Lbvh::validate(const SphereView& spheres) const {
@@ -434,7 +437,8 @@ void Lbvh::validate(const SphereView& spheres) const {
     } else {
       const Node& a = nodes_[p + 1];
       const Node& b = nodes_[static_cast<std::size_t>(nd.right)];
-      if (parent_[p + 1] != static_cast<Index>(p) || parent_[static_cast<std::size_t>(nd.right)] != static_cast<Index>(p)) {
+      if (parent_[p + 1] != static_cast<Index>(p) ||
+          parent_[static_cast<std::size_t>(nd.right)] != static_cast<Index>(p)) {
         throw std::logic_error(fmt::format("lbvh: parent links of node {} broken", p));
       }
       if (!inside(a) || !inside(b)) throw std::logic_error(fmt::format("lbvh: node {} does not bound its children", p));
@@ -442,7 +446,8 @@ void Lbvh::validate(const SphereView& spheres) const {
     }
   }
   for (Index s = 0; s < n; ++s) {
-    if (covered[static_cast<std::size_t>(s)] != 1) throw std::logic_error(fmt::format("lbvh: slot {} not in one leaf", s));
+    if (covered[static_cast<std::size_t>(s)] != 1)
+      throw std::logic_error(fmt::format("lbvh: slot {} not in one leaf", s));
   }
 }
 

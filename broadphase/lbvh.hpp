@@ -96,12 +96,12 @@ class Lbvh final : public BroadPhase {
   double quality_ = 0.0, builtQuality_ = 0.0;
   double tolerance_ = 0.0;  // absolute slack on box tests (m): rounding of imaged coordinates
   int depth_ = 0;
-  std::vector<Node> nodes_;            // pre-order; root at 0
-  std::vector<Index> parent_;          // per node (-1 for the root)
-  std::vector<Index> leafNode_;        // node of leaf l (slots [l * leafSize, ...))
-  std::vector<Index> sorted_;          // particle per slot (Morton order)
-  std::vector<Index> slotOf_;          // slot per particle
-  Eigen::Matrix4Xd packed_;            // x, y, z, r per slot
+  std::vector<Node> nodes_;      // pre-order; root at 0
+  std::vector<Index> parent_;    // per node (-1 for the root)
+  std::vector<Index> leafNode_;  // node of leaf l (slots [l * leafSize, ...))
+  std::vector<Index> sorted_;    // particle per slot (Morton order)
+  std::vector<Index> slotOf_;    // slot per particle
+  Eigen::Matrix4Xd packed_;      // x, y, z, r per slot
   // Build scratch (capacity kept: no allocation in steady state).
   std::vector<std::pair<std::uint64_t, Index>> keys_;
   std::vector<std::uint64_t> leafKey_;

@@ -1,11 +1,12 @@
 // Dynamic AABB tree specifics beyond the property suite: incremental update() against a fresh build,
 // fat boxes (moves inside them cost nothing), AVL balance and the node pool under long move sequences.
-#include <cmath>
-#include <random>
+#include "broadphase/aabb_tree.hpp"
 
 #include <gtest/gtest.h>
 
-#include "broadphase/aabb_tree.hpp"
+#include <cmath>
+#include <random>
+
 #include "broadphase/brute_force.hpp"
 #include "broadphase/registry.hpp"
 #include "tests/support/scene.hpp"
@@ -30,8 +31,12 @@ TEST(AabbTree, IsIncremental) {
 
 TEST(AabbTree, UpdateOfAMovedSubsetMatchesAFreshBuild) {
   for (bool periodic : {true, false}) {
-    test::Scene scene = test::makeScene({.count = 3000, .distribution = "uniform-volume", .sizeRatio = 50.0,
-                                         .packing = 0.3, .periodic = periodic, .seed = 12});
+    test::Scene scene = test::makeScene({.count = 3000,
+                                         .distribution = "uniform-volume",
+                                         .sizeRatio = 50.0,
+                                         .packing = 0.3,
+                                         .periodic = periodic,
+                                         .seed = 12});
     const double skin = 0.4 * scene.minRadius();
     AabbTree tree;
     tree.build(scene.spheres(), scene.box, skin);
@@ -68,7 +73,8 @@ TEST(AabbTree, UpdateOfAMovedSubsetMatchesAFreshBuild) {
 }
 
 TEST(AabbTree, MovesInsideTheFatBoxAreFree) {
-  test::Scene scene = test::makeScene({.count = 500, .distribution = "bi", .sizeRatio = 4.0, .packing = 0.3, .seed = 2});
+  test::Scene scene =
+      test::makeScene({.count = 500, .distribution = "bi", .sizeRatio = 4.0, .packing = 0.3, .seed = 2});
   const double skin = 0.5 * scene.minRadius();
   AabbTree tree;
   tree.build(scene.spheres(), scene.box, skin);
@@ -85,8 +91,8 @@ TEST(AabbTree, MovesInsideTheFatBoxAreFree) {
 
 TEST(AabbTree, StaysBalancedAndReusesItsNodesOverLongMoveSequences) {
   // Every sphere moves far, repeatedly, with wrap-around: the worst case for an incremental tree.
-  test::Scene scene = test::makeScene(
-      {.count = 2000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.2, .seed = 4});
+  test::Scene scene =
+      test::makeScene({.count = 2000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.2, .seed = 4});
   for (double skin : {0.0, 0.3 * scene.minRadius()}) {
     AabbTree tree;
     tree.build(scene.spheres(), scene.box, skin);
@@ -114,8 +120,8 @@ TEST(AabbTree, StaysBalancedAndReusesItsNodesOverLongMoveSequences) {
 }
 
 TEST(AabbTree, NeighboursAfterUpdatesMatchBruteForce) {
-  test::Scene scene = test::makeScene(
-      {.count = 1200, .distribution = "uniform-volume", .sizeRatio = 100.0, .packing = 0.3, .seed = 9});
+  test::Scene scene =
+      test::makeScene({.count = 1200, .distribution = "uniform-volume", .sizeRatio = 100.0, .packing = 0.3, .seed = 9});
   const double skin = 0.5 * scene.minRadius();
   AabbTree tree;
   tree.build(scene.spheres(), scene.box, skin);

@@ -1,13 +1,14 @@
 // LBVH specifics beyond the property suite: leaf sizes, duplicate Morton keys, refit and the rebuild
 // rule, exact periodic images at a box of exactly two cut-offs, steady-state buffers.
+#include "broadphase/lbvh.hpp"
+
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <limits>
 #include <random>
 
-#include <gtest/gtest.h>
-
 #include "broadphase/brute_force.hpp"
-#include "broadphase/lbvh.hpp"
 #include "core/errors.hpp"
 #include "tests/support/scene.hpp"
 
@@ -26,8 +27,12 @@ std::vector<Pair> pairsOf(const broadphase::BroadPhase& bp, const test::Scene& s
 
 TEST(Lbvh, EveryLeafSizeMatchesBruteForce) {
   for (bool periodic : {true, false}) {
-    const test::Scene scene = test::makeScene({.count = 2500, .distribution = "uniform-volume", .sizeRatio = 100.0,
-                                               .packing = 0.3, .periodic = periodic, .seed = 8});
+    const test::Scene scene = test::makeScene({.count = 2500,
+                                               .distribution = "uniform-volume",
+                                               .sizeRatio = 100.0,
+                                               .packing = 0.3,
+                                               .periodic = periodic,
+                                               .seed = 8});
     const double skin = 0.2 * scene.minRadius();
     const auto expected = test::pairsFrom("brute", scene, skin);
     ASSERT_GT(expected.size(), 0u);
@@ -147,8 +152,8 @@ TEST(Lbvh, PeriodicBoxOfExactlyTwoCutoffsReportsEachPairOnce) {
 }
 
 TEST(Lbvh, SteadyStateKeepsItsBuffers) {
-  test::Scene scene = test::makeScene(
-      {.count = 4000, .distribution = "uniform-volume", .sizeRatio = 20.0, .packing = 0.3, .seed = 6});
+  test::Scene scene =
+      test::makeScene({.count = 4000, .distribution = "uniform-volume", .sizeRatio = 20.0, .packing = 0.3, .seed = 6});
   const double skin = 0.2 * scene.minRadius();
   Lbvh bvh;
   std::vector<Pair> pairs;
