@@ -108,21 +108,33 @@ double linkedCellTests(const broadphase::LinkedCell& lc, const io::ParticleData&
     for (int k = 0; k < 3; ++k) c[k] = std::clamp(static_cast<int>(d.position(k, i) / size[k]), 0, cells[k] - 1);
     count[index(c[0], c[1], c[2])] += 1.0;
   }
+  // Distinct neighbour coordinates along axis k of cell coordinate c: wrapped on periodic axes,
+  // clipped at walls, each once (an axis of one or two cells aliases its neighbours).
+  auto around = [&](int k, int c, int* out) {
+    int m = 0;
+    for (int dc = -1; dc <= 1; ++dc) {
+      int q = c + dc;
+      if (q < 0 || q >= cells[k]) {
+        if (!d.box.periodic(k)) continue;
+        q = (q + cells[k]) % cells[k];
+      }
+      if (std::find(out, out + m, q) == out + m) out[m++] = q;
+    }
+    return m;
+  };
   double tests = 0.0;
   for (int z = 0; z < cells[2]; ++z)
     for (int y = 0; y < cells[1]; ++y)
       for (int x = 0; x < cells[0]; ++x) {
         const double own = count[index(x, y, z)];
         if (own == 0.0) continue;
-        double around = 0.0;
-        for (int dz = -1; dz <= 1; ++dz)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int q[3] = {(x + dx + cells[0]) % cells[0], (y + dy + cells[1]) % cells[1],
-                                (z + dz + cells[2]) % cells[2]};
-              around += count[index(q[0], q[1], q[2])];
-            }
-        tests += 0.5 * own * around;
+        int qx[3], qy[3], qz[3];
+        const int mx = around(0, x, qx), my = around(1, y, qy), mz = around(2, z, qz);
+        double near = 0.0;
+        for (int c = 0; c < mz; ++c)
+          for (int b = 0; b < my; ++b)
+            for (int a = 0; a < mx; ++a) near += count[index(qx[a], qy[b], qz[c])];
+        tests += 0.5 * own * near;
       }
   return tests;
 }
