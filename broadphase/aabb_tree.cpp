@@ -64,7 +64,6 @@ void AabbTree::refit(Index n) {
     nd.hi[k] = std::max(a.hi[k], b.hi[k]);
   }
   nd.rmax = std::max(a.rmax, b.rmax);
-  nd.maxIndex = std::max(a.maxIndex, b.maxIndex);
   height_[static_cast<std::size_t>(n)] =
       1 + std::max(height_[static_cast<std::size_t>(nd.child1)], height_[static_cast<std::size_t>(nd.child2)]);
 }
@@ -84,7 +83,6 @@ Index AabbTree::buildRange(const SphereView& spheres, Index first, Index last) {
     Node& nd = nodes_[static_cast<std::size_t>(n)];
     nd.child1 = -1;
     nd.child2 = i;
-    nd.maxIndex = i;
     nd.rmax = spheres.radius[i];
     setFatBox(n, spheres.centre.col(i).data());
     leafOf_[static_cast<std::size_t>(i)] = n;
@@ -297,7 +295,7 @@ void AabbTree::imagesOf(const double* x, double radius, Images& out) const {
 }
 
 template <bool kCount, class Visit>
-void AabbTree::query(const SphereView& spheres, Index i, const double* shift, double reach, bool laterOnly,
+void AabbTree::query(const SphereView& spheres, Index i, const double* shift, double reach, Index minRank,
                      std::uint64_t& tests, std::uint64_t& visits, Visit&& visit) const {
   const double* x = spheres.centre.col(i).data();
   const double ri = spheres.radius[i];
@@ -310,7 +308,7 @@ void AabbTree::query(const SphereView& spheres, Index i, const double* shift, do
     const Index id = stack[--top];
     const Node& nd = nodes_[static_cast<std::size_t>(id)];
     const bool leaf = nd.child1 < 0;
-    if (laterOnly ? nd.maxIndex <= i : leaf && nd.child2 == i) continue;
+    if (minRank >= 0 ? nd.maxRank <= minRank : leaf && nd.child2 == i) continue;
     if constexpr (kCount) ++visits;
     double d2 = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -334,22 +332,50 @@ template <bool kCount>
 void AabbTree::pairsImpl(const SphereView& spheres, std::vector<Pair>& out) const {
   const Index n = spheres.count();
   const double rootRadius = nodes_[static_cast<std::size_t>(root_)].rmax;
+  // Depth-first ranks: a subtree's leaves have consecutive ranks, its maxRank the last of them.
+  order_.resize(static_cast<std::size_t>(n));
+  preorder_.clear();
+  {
+    Index next = 0;
+    Index* stack = stack_.data();
+    int top = 0;
+    stack[top++] = root_;
+    while (top > 0) {
+      const Index id = stack[--top];
+      const Node& nd = nodes_[static_cast<std::size_t>(id)];
+      if (nd.child1 < 0) {
+        nd.maxRank = next;
+        order_[static_cast<std::size_t>(next++)] = nd.child2;
+      } else {
+        preorder_.push_back(id);
+        stack[top++] = nd.child2;
+        stack[top++] = nd.child1;
+      }
+    }
+    for (auto it = preorder_.rbegin(); it != preorder_.rend(); ++it) {  // children before parents
+      const Node& nd = nodes_[static_cast<std::size_t>(*it)];
+      nd.maxRank = std::max(nodes_[static_cast<std::size_t>(nd.child1)].maxRank,
+                            nodes_[static_cast<std::size_t>(nd.child2)].maxRank);
+    }
+  }
   std::uint64_t tests = 0, visits = 0;
   Images images;
-  for (Index i = 0; i + 1 < n; ++i) {
+  for (Index r = 0; r + 1 < n; ++r) {
+    const Index i = order_[static_cast<std::size_t>(r)];
+    auto emit = [&](Index j) { out.push_back(i < j ? Pair{i, j} : Pair{j, i}); };
     imagesOf(spheres.centre.col(i).data(), spheres.radius[i] + rootRadius + skin_ + tolerance_, images);
     if (images.count == 1) {
-      query<kCount>(spheres, i, images.shift[0], skin_, true, tests, visits, [&](Index j) { out.push_back({i, j}); });
+      query<kCount>(spheres, i, images.shift[0], skin_, r, tests, visits, emit);
       continue;
     }
     // A sphere reached through two images (a periodic length of exactly 2 cut-offs) is reported once.
     found_.clear();
     for (int k = 0; k < images.count; ++k) {
-      query<kCount>(spheres, i, images.shift[k], skin_, true, tests, visits, [&](Index j) { found_.push_back(j); });
+      query<kCount>(spheres, i, images.shift[k], skin_, r, tests, visits, [&](Index j) { found_.push_back(j); });
     }
     std::sort(found_.begin(), found_.end());
     found_.erase(std::unique(found_.begin(), found_.end()), found_.end());
-    for (Index j : found_) out.push_back({i, j});
+    for (Index j : found_) emit(j);
   }
   if constexpr (kCount) {
     counters_.pairTests += tests;
@@ -380,7 +406,7 @@ void AabbTree::findNeighbours(const SphereView& spheres, Index i, double reach, 
            spheres.radius[i] + nodes_[static_cast<std::size_t>(root_)].rmax + reach + tolerance_, images);
   std::uint64_t tests = 0, visits = 0;
   for (int k = 0; k < images.count; ++k) {
-    query<false>(spheres, i, images.shift[k], reach, false, tests, visits, [&](Index j) { out.push_back(j); });
+    query<false>(spheres, i, images.shift[k], reach, -1, tests, visits, [&](Index j) { out.push_back(j); });
   }
   std::sort(out.begin(), out.end());
   if (images.count > 1) out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -389,7 +415,7 @@ void AabbTree::findNeighbours(const SphereView& spheres, Index i, double reach, 
 std::size_t AabbTree::memoryBytes() const {
   return nodes_.capacity() * sizeof(Node) + parent_.capacity() * sizeof(Index) + height_.capacity() * sizeof(int) +
          leafOf_.capacity() * sizeof(Index) + keys_.capacity() * sizeof(keys_[0]) + stack_.capacity() * sizeof(Index) +
-         found_.capacity() * sizeof(Index);
+         (found_.capacity() + order_.capacity() + preorder_.capacity()) * sizeof(Index);
 }
 
 std::string AabbTree::describe() const {
@@ -422,7 +448,6 @@ void AabbTree::validate(const SphereView& spheres) const {
         throw std::logic_error(fmt::format("aabb-tree: leafOf {} stale", j));
       if (hgt != 0) throw std::logic_error(fmt::format("aabb-tree: leaf {} has height {}", id, hgt));
       if (nd.rmax != spheres.radius[j]) throw std::logic_error(fmt::format("aabb-tree: leaf radius of {} wrong", j));
-      if (nd.maxIndex != j) throw std::logic_error(fmt::format("aabb-tree: leaf index of {} wrong", j));
       for (int k = 0; k < 3; ++k) {
         const double x = spheres.centre(k, j);
         if (x < nd.lo[k] || x > nd.hi[k])
@@ -440,8 +465,6 @@ void AabbTree::validate(const SphereView& spheres) const {
           throw std::logic_error(fmt::format("aabb-tree: node {} unbounded", id));
       }
       if (cn.rmax > nd.rmax) throw std::logic_error(fmt::format("aabb-tree: r_max of node {} too small", id));
-      if (cn.maxIndex > nd.maxIndex)
-        throw std::logic_error(fmt::format("aabb-tree: max index of node {} too small", id));
       todo.push_back(c);
     }
     const int ha = height_[static_cast<std::size_t>(a)], hb = height_[static_cast<std::size_t>(b)];

@@ -20,10 +20,10 @@
 // AVL balance.
 //
 // build() is a bulk build: Morton order of the centres, split at the median, which is balanced, so
-// incremental updates start from a valid AVL tree. findPairs: one stack-based traversal per sphere
-// reporting j > i (each node knows its largest sphere index, so subtrees holding only j < i are
-// skipped; on index-sorted input that is most of the tree behind the query), with images of the
-// query on periodic axes. Nodes live in a pool with a free
+// incremental updates start from a valid AVL tree. findPairs first ranks the leaves in depth-first
+// order (O(N); each node then knows the largest rank below it), then runs one stack-based traversal
+// per sphere in rank order that skips subtrees of lower rank, so each pair is found once and queries
+// follow the tree through space; periodic boundaries image the query. Nodes live in a pool with a free
 // list: steady-state updates and queries do not allocate.
 #include <cstdint>
 #include <vector>
@@ -58,11 +58,11 @@ class AabbTree final : public BroadPhase {
 
  private:
   struct Node {
-    double lo[3], hi[3];  // leaf: fat box of the centre; internal: union of the children (m)
-    double rmax;          // largest radius below (m)
-    Index child1;         // -1 for a leaf
-    Index child2;         // leaf: the sphere
-    Index maxIndex;       // largest sphere index below: findPairs skips subtrees with no j > i
+    double lo[3], hi[3];    // leaf: fat box of the centre; internal: union of the children (m)
+    double rmax;            // largest radius below (m)
+    Index child1;           // -1 for a leaf
+    Index child2;           // leaf: the sphere
+    mutable Index maxRank;  // set by findPairs: the largest depth-first rank of a leaf below
   };
   bool isLeaf(Index n) const { return nodes_[static_cast<std::size_t>(n)].child1 < 0; }
   Index allocate();
@@ -84,8 +84,9 @@ class AabbTree final : public BroadPhase {
   };
   void imagesOf(const double* x, double radius, Images& out) const;
   template <bool kCount, class Visit>
-  void query(const SphereView& spheres, Index i, const double* shift, double reach, bool laterOnly,
-             std::uint64_t& tests, std::uint64_t& visits, Visit&& visit) const;
+  /// minRank >= 0: only leaves of higher depth-first rank (findPairs); < 0: every leaf but i's.
+  void query(const SphereView& spheres, Index i, const double* shift, double reach, Index minRank, std::uint64_t& tests,
+             std::uint64_t& visits, Visit&& visit) const;
   template <bool kCount>
   void pairsImpl(const SphereView& spheres, std::vector<Pair>& out) const;
 
@@ -103,6 +104,8 @@ class AabbTree final : public BroadPhase {
   // Query scratch.
   mutable std::vector<Index> stack_;
   mutable std::vector<Index> found_;
+  mutable std::vector<Index> order_;     // sphere per depth-first leaf rank
+  mutable std::vector<Index> preorder_;  // internal nodes in depth-first order
 };
 
 }  // namespace polydem::broadphase
