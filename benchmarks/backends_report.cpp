@@ -13,6 +13,7 @@
 // The CSV holds the medians over rounds in microseconds of thread CPU time per particle (update: per
 // particle of the system; update_per_moved: per moved sphere) and memoryBytes() per particle.
 //
+// Backend names are the registry's, plus lbvh:B for an LBVH with leaves of B spheres.
 //   polydem_backends_report [--backends a,b] [--repeat 5] [--moved 0.01,0.1] [--skin-factor 0.1]
 //                           [--budget 60] [--csv out.csv] FILE...
 #include <fmt/format.h>
@@ -29,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
@@ -94,6 +96,16 @@ void displace(const io::ParticleData& d, double skin, double fraction, int round
     x.col(i) = d.box.wrap(y);
     moved.push_back(i);
   }
+}
+
+/// A registry backend, or `lbvh:B` for the LBVH with leaves of B spheres (leaf-size tuning).
+std::unique_ptr<broadphase::BroadPhase> makeBackend(const std::string& name) {
+  if (name.rfind("lbvh:", 0) == 0) {
+    auto bvh = std::make_unique<broadphase::Lbvh>();
+    bvh->setLeafSize(std::stoi(name.substr(5)));
+    return bvh;
+  }
+  return broadphase::makeBroadPhase(name);
 }
 
 /// Pair tests linked cell would make (the 27-cell stencil, each pair once): on wide distributions its
@@ -198,7 +210,7 @@ int main(int argc, char** argv) {
       Sample& s = samples[name];
       s.update.resize(fractions.size());
       s.pairsAfterUpdate.assign(fractions.size(), 0);
-      auto bp = broadphase::makeBroadPhase(name);
+      auto bp = makeBackend(name);
       if (name == "brute" && n > 20000) {
         s.status = "skipped: O(N^2) above N = 20000";
         continue;
@@ -229,7 +241,7 @@ int main(int argc, char** argv) {
       for (std::size_t k = 0; k < active.size(); ++k) {
         const std::string& name = active[(k + static_cast<std::size_t>(round)) % active.size()];
         Sample& s = samples[name];
-        auto bp = broadphase::makeBroadPhase(name);
+        auto bp = makeBackend(name);
         bp->build(spheres, d.box, skin);  // sizes buffers and runs auto's optimiser once, untimed
         double t0 = threadSeconds();
         bp->build(spheres, d.box, skin);

@@ -16,7 +16,8 @@
 #   COUNTS=2000 REPEAT=1 JAM_SCHEDULE=1e-2 OUT=/tmp/trees scripts/backends_report.sh   (smoke test)
 # Environment: COUNTS (default "100000 1000000"), PACKINGS ("0.3 0.6"), REPEAT (5), MOVED (0.01,0.1),
 # SKIN_FACTOR (0.1), BUDGET (seconds per warm-up before a backend is skipped for a scene, 300),
-# BACKENDS (comma-separated, default every registered one), OUT (docs/benchmarks/backends/trees),
+# BACKENDS (comma-separated, default every registered one; lbvh:B = LBVH with leaves of B spheres,
+# e.g. BACKENDS=hgrid-td,lbvh:2,lbvh:4,lbvh:8 to tune the leaf size), OUT (docs/benchmarks/backends/trees),
 # STATES (OUT/states), JAM_SCHEDULE (growth schedule of `polydem jam`, default its own; e.g. 1e-2 for
 # a quick smoke test), SCENES ("uniform-volume:10 uniform-volume:50 uniform-volume:100
 # uniform-volume:1000 bi:10 bi:100").
