@@ -15,9 +15,9 @@
 // ancestor is re-bounded and may be rotated: one of its children swaps with a grandchild (the four tree rotations of
 // Kopta et al., "Fast, effective BVH updates for animated scenes", I3D 2012; Bittner, Hapala & Havran, Comput. Graph.
 // Forum 32 (2013) 85 optimise trees by such local moves). Rotation heuristic: a node whose children's heights differ by
-// more than one takes the rotation that restores the AVL balance (what Box2D's Balance achieves), so the height stays
-// O(log N); otherwise it takes the rotation that most reduces the area of the rebuilt child, among those that keep the
-// AVL balance.
+// more than one takes the rotation that restores the AVL balance (as Box2D's tree balances by height), so the height
+// stays O(log N); otherwise it takes the rotation that most reduces the area of the rebuilt child, among those that
+// keep the AVL balance.
 //
 // build() is a bulk build: Morton order of the centres, split at the median, which is balanced, so
 // incremental updates start from a valid AVL tree. findPairs first ranks the leaves in depth-first

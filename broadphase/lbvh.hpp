@@ -4,12 +4,12 @@
 // Spheres are sorted along a Morton (Z-order) curve of their centres and cut into leaves of
 // `leafSize` consecutive spheres; the binary radix tree over the leaves' keys is built with Karras'
 // per-node range/split search (Karras, "Maximizing parallelism in the construction of BVHs, octrees,
-// and k-d trees", HPG 2012, Sec. 4 and Fig. 4), which is O(M log M) for M leaves here because it
+// and k-d trees", HPG 2012, Sec. 4), which is O(M log M) for M leaves here because it
 // runs sequentially. Duplicate keys are disambiguated by the leaf index, as Karras does (Sec. 4).
 // The tree is then laid out in depth-first pre-order (left child = next node), so a traversal walks
 // memory forwards. Each node stores the box of the sphere centres below it and the largest radius
 // below it; sphere i visits a node when its centre is within r_i + r_max(node) + skin of the box
-// (Howard et al., Comput. Phys. Commun. 203 (2016) 45, Sec. 3: one tree, per-particle search radius).
+// (Howard et al., Comput. Phys. Commun. 203 (2016) 45: one tree, per-particle search radius).
 //
 // findPairs: one stack-based traversal per leaf, with the leaf's box and largest radius, that only
 // looks at leaves later in Morton order (every node knows the end of its slot range, so earlier
@@ -24,8 +24,12 @@
 // topology is kept. Rebuild rule: the tree is rebuilt from scratch when the summed volume of the
 // node boxes dilated by their search radius (r_max(node) + r_min + skin), which is V times the
 // expected number of node visits of a small sphere's query (the proximity analogue of MacDonald &
-// Booth's surface-area heuristic), exceeds `rebuildFactor` (default 1.5) times its value right after
-// the last build.
+// Booth's surface-area heuristic, The Visual Computer 6 (1990) 153), exceeds `rebuildFactor`
+// (default 1.5) times its value right after the last build.
+//
+// Leaf size 4 is Howard et al.'s default, not tuned here (scripts/backends_report.sh takes lbvh:B to
+// tune it). `auto` does not consider trees: no validated model of their cost exists yet
+// (docs/benchmarks/backends/README.md).
 #include <cstdint>
 #include <vector>
 
