@@ -4,9 +4,11 @@
 
 #include <fmt/format.h>
 
+#include "broadphase/aabb_tree.hpp"
 #include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
 #include "broadphase/hgrid.hpp"
+#include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
 #include "broadphase/sweep_and_prune.hpp"
 #include "core/errors.hpp"
@@ -46,6 +48,8 @@ constexpr Entry kBackends[] = {
     {"hgrid-td", &makeOptimisedGrid<HGridTopDown>},
     {"hgrid-bu", &makeOptimisedGrid<HGridBottomUp>},
     {"sap", &make<SweepAndPrune>},
+    {"lbvh", &make<Lbvh>},
+    {"aabb-tree", &make<AabbTree>},
 #if POLYDEM_WITH_CGAL
     {"cgal-box", &make<CgalBox>},
     {"delaunay", &make<Delaunay>},

@@ -1,0 +1,454 @@
+// Linear BVH broad phase; design notes and references in lbvh.hpp.
+#include "broadphase/lbvh.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "core/errors.hpp"
+#include "core/morton.hpp"
+
+namespace polydem::broadphase {
+
+namespace {
+constexpr int kMortonBits = 21;  // per axis: 63-bit keys
+
+// Karras 2012, Sec. 4: delta(i, j) = length of the longest common prefix of the keys of leaves i and
+// j, -1 outside [0, m); equal keys fall back to the common prefix of the indices (32 more bits).
+inline int commonPrefix(const std::vector<std::uint64_t>& key, Index m, Index i, Index j) {
+  if (j < 0 || j >= m) return -1;
+  const std::uint64_t a = key[static_cast<std::size_t>(i)], b = key[static_cast<std::size_t>(j)];
+  if (a != b) return std::countl_zero(a ^ b);
+  return 64 + std::countl_zero(static_cast<std::uint32_t>(i ^ j));
+}
+}  // namespace
+
+void Lbvh::setLeafSize(int size) {
+  if (size < 1) throw ConfigError(fmt::format("lbvh: leaf size must be >= 1, got {}", size));
+  leafSize_ = size;
+}
+
+void Lbvh::setRebuildFactor(double factor) {
+  if (!(factor > 1.0)) throw ConfigError(fmt::format("lbvh: rebuild factor must be > 1, got {}", factor));
+  rebuildFactor_ = factor;
+}
+
+double Lbvh::nodeCost(const Node& n) const {
+  const double h = 2.0 * (n.rmax + minRadius_ + skin_);
+  return (n.hi[0] - n.lo[0] + h) * (n.hi[1] - n.lo[1] + h) * (n.hi[2] - n.lo[2] + h);
+}
+
+void Lbvh::boundLeaf(Index node) {
+  Node& nd = nodes_[static_cast<std::size_t>(node)];
+  const Index first = -1 - nd.right;
+  for (int k = 0; k < 3; ++k) {
+    nd.lo[k] = std::numeric_limits<double>::infinity();
+    nd.hi[k] = -std::numeric_limits<double>::infinity();
+  }
+  nd.rmax = 0.0;
+  for (Index t = first; t < nd.end; ++t) {
+    const double* p = packed_.data() + 4 * static_cast<std::ptrdiff_t>(t);
+    for (int k = 0; k < 3; ++k) {
+      nd.lo[k] = std::min(nd.lo[k], p[k]);
+      nd.hi[k] = std::max(nd.hi[k], p[k]);
+    }
+    nd.rmax = std::max(nd.rmax, p[3]);
+  }
+}
+
+void Lbvh::boundInternal(Index node) {
+  Node& nd = nodes_[static_cast<std::size_t>(node)];
+  const Node& a = nodes_[static_cast<std::size_t>(node) + 1];
+  const Node& b = nodes_[static_cast<std::size_t>(nd.right)];
+  for (int k = 0; k < 3; ++k) {
+    nd.lo[k] = std::min(a.lo[k], b.lo[k]);
+    nd.hi[k] = std::max(a.hi[k], b.hi[k]);
+  }
+  nd.rmax = std::max(a.rmax, b.rmax);
+  nd.end = b.end;
+}
+
+void Lbvh::refitAll() {
+  quality_ = 0.0;
+  for (Index p = static_cast<Index>(nodes_.size()) - 1; p >= 0; --p) {  // children after parents
+    if (isLeaf(nodes_[static_cast<std::size_t>(p)])) {
+      boundLeaf(p);
+    } else {
+      boundInternal(p);
+    }
+    quality_ += nodeCost(nodes_[static_cast<std::size_t>(p)]);
+  }
+}
+
+void Lbvh::doBuild(const SphereView& spheres) {
+  ++rebuilds_;
+  const Index n = spheres.count();
+  tolerance_ = 1e-12 * (box_.lengths().maxCoeff() + 4.0 * maxRadius_ + 2.0 * skin_);
+  sorted_.resize(static_cast<std::size_t>(n));
+  slotOf_.resize(static_cast<std::size_t>(n));
+  packed_.resize(4, n);
+  nodes_.clear();
+  parent_.clear();
+  leafNode_.clear();
+  depth_ = 0;
+  quality_ = builtQuality_ = 0.0;
+  if (n == 0) return;
+
+  // Morton order; ties broken by index so the tree does not depend on the sort's stability.
+  keys_.resize(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i)
+    keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
+  std::sort(keys_.begin(), keys_.end());
+  for (Index s = 0; s < n; ++s) {
+    const Index i = keys_[static_cast<std::size_t>(s)].second;
+    sorted_[static_cast<std::size_t>(s)] = i;
+    slotOf_[static_cast<std::size_t>(i)] = s;
+    packed_.col(s) << spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i];
+  }
+
+  // Leaves: runs of leafSize_ consecutive slots, keyed by their first sphere's code.
+  const Index b = leafSize_;
+  const Index m = (n + b - 1) / b;
+  leafKey_.resize(static_cast<std::size_t>(m));
+  for (Index l = 0; l < m; ++l) leafKey_[static_cast<std::size_t>(l)] = keys_[static_cast<std::size_t>(l * b)].first;
+
+  // Karras 2012, Fig. 4: internal node i spans leaves [min(i, j), max(i, j)] and splits at gamma.
+  childLeft_.resize(static_cast<std::size_t>(std::max<Index>(m - 1, 0)));
+  childRight_.resize(childLeft_.size());
+  for (Index i = 0; i + 1 < m; ++i) {
+    auto delta = [&](Index j) { return commonPrefix(leafKey_, m, i, j); };
+    const Index d = delta(i + 1) > delta(i - 1) ? 1 : -1;
+    const int deltaMin = delta(i - d);
+    std::int64_t lmax = 2;
+    while (i + lmax * d >= 0 && i + lmax * d < m && delta(static_cast<Index>(i + lmax * d)) > deltaMin) lmax *= 2;
+    Index l = 0;
+    for (std::int64_t t = lmax / 2; t >= 1; t /= 2) {
+      const std::int64_t j = i + (l + t) * d;
+      if (j >= 0 && j < m && delta(static_cast<Index>(j)) > deltaMin) l += static_cast<Index>(t);
+    }
+    const Index j = i + l * d;
+    const int deltaNode = delta(j);
+    Index s = 0;
+    Index t = l;
+    do {
+      t = (t + 1) / 2;
+      if (delta(i + (s + t) * d) > deltaNode) s += t;
+    } while (t > 1);
+    const Index gamma = i + s * d + std::min<Index>(d, 0);
+    childLeft_[static_cast<std::size_t>(i)] = std::min(i, j) == gamma ? -1 - gamma : gamma;
+    childRight_[static_cast<std::size_t>(i)] = std::max(i, j) == gamma + 1 ? -1 - (gamma + 1) : gamma + 1;
+  }
+
+  // Pre-order relayout: the left child of node p is p + 1.
+  nodes_.resize(static_cast<std::size_t>(2 * m - 1));
+  parent_.resize(nodes_.size());
+  leafNode_.resize(static_cast<std::size_t>(m));
+  work_.clear();
+  work_.push_back({m > 1 ? 0 : -1, -1, false, 0});
+  Index next = 0;
+  while (!work_.empty()) {
+    const Pending item = work_.back();
+    work_.pop_back();
+    const Index p = next++;
+    parent_[static_cast<std::size_t>(p)] = item.parent;
+    if (item.isRight) nodes_[static_cast<std::size_t>(item.parent)].right = p;
+    depth_ = std::max(depth_, item.depth);
+    Node& nd = nodes_[static_cast<std::size_t>(p)];
+    if (item.karras < 0) {
+      const Index leaf = -1 - item.karras;
+      nd.right = -1 - leaf * b;
+      nd.end = std::min(n, (leaf + 1) * b);
+      leafNode_[static_cast<std::size_t>(leaf)] = p;
+    } else {
+      nd.right = 0;  // set when the right child is placed
+      work_.push_back({childRight_[static_cast<std::size_t>(item.karras)], p, true, item.depth + 1});
+      work_.push_back({childLeft_[static_cast<std::size_t>(item.karras)], p, false, item.depth + 1});
+    }
+  }
+  refitAll();
+  builtQuality_ = quality_;
+  if (stack_.size() < static_cast<std::size_t>(depth_) + 2) stack_.resize(static_cast<std::size_t>(depth_) + 2);
+}
+
+void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
+  if (nodes_.empty()) return;
+  for (Index i : moved) packed_.col(slotOf_[static_cast<std::size_t>(i)]).head<3>() = spheres.centre.col(i);
+  if (static_cast<double>(moved.size()) * (depth_ + 1) > static_cast<double>(nodes_.size())) {
+    refitAll();  // many moved: one O(M) sweep is cheaper than the paths
+  } else {
+    // Re-bound each moved sphere's leaf and its ancestors, stopping where a box did not change.
+    for (Index i : moved) {
+      Index p = leafNode_[static_cast<std::size_t>(slotOf_[static_cast<std::size_t>(i)] / leafSize_)];
+      while (p >= 0) {
+        Node& nd = nodes_[static_cast<std::size_t>(p)];
+        const Node before = nd;
+        quality_ -= nodeCost(nd);
+        if (isLeaf(nd)) {
+          boundLeaf(p);
+        } else {
+          boundInternal(p);
+        }
+        quality_ += nodeCost(nd);
+        if (std::equal(before.lo, before.lo + 3, nd.lo) && std::equal(before.hi, before.hi + 3, nd.hi)) break;
+        p = parent_[static_cast<std::size_t>(p)];
+      }
+    }
+  }
+  if (quality_ > rebuildFactor_ * builtQuality_) doBuild(spheres);
+}
+
+void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& out) const {
+  double shifts[3][3];
+  int count[3];
+  for (int k = 0; k < 3; ++k) {
+    count[k] = 0;
+    shifts[k][count[k]++] = 0.0;
+    if (!box_.periodic(k)) continue;
+    // Image at x + L reaches spheres near L; image at x - L reaches spheres near 0.
+    if (lo[k] - radius < 0.0) shifts[k][count[k]++] = box_.length(k);
+    if (hi[k] + radius > box_.length(k)) shifts[k][count[k]++] = -box_.length(k);
+  }
+  out.count = 0;
+  for (int a = 0; a < count[0]; ++a)
+    for (int b = 0; b < count[1]; ++b)
+      for (int c = 0; c < count[2]; ++c) {
+        double* s = out.shift[out.count++];
+        s[0] = shifts[0][a];
+        s[1] = shifts[1][b];
+        s[2] = shifts[2][c];
+      }
+}
+
+template <bool kCount, class Visit>
+void Lbvh::query(const double* x, const double* shift, double ri, double reach, Index minSlot, std::uint64_t& tests,
+                 std::uint64_t& visits, Visit&& visit) const {
+  const double q[3] = {x[0] + shift[0], x[1] + shift[1], x[2] + shift[2]};
+  const double* p = packed_.data();
+  const double base = ri + reach + tolerance_;
+  Index* stack = stack_.data();
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Index id = stack[--top];
+    const Node& nd = nodes_[static_cast<std::size_t>(id)];
+    if (nd.end <= minSlot) continue;  // every sphere below comes before the query in Morton order
+    if constexpr (kCount) ++visits;
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = std::max(std::max(nd.lo[k] - q[k], q[k] - nd.hi[k]), 0.0);
+      d2 += d * d;
+    }
+    const double limit = base + nd.rmax;
+    if (d2 > limit * limit) continue;
+    if (isLeaf(nd)) {
+      for (Index t = std::max(-1 - nd.right, minSlot); t < nd.end; ++t) {
+        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+        if constexpr (kCount) ++tests;
+        if (spheresWithinReach(box_, x, ri, pt, pt[3], reach)) visit(t);
+      }
+    } else {
+      stack[top++] = nd.right;
+      stack[top++] = id + 1;
+    }
+  }
+}
+
+void Lbvh::candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const {
+  double lo[3], hi[3];
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = group.lo[k] + shift[k];
+    hi[k] = group.hi[k] + shift[k];
+  }
+  const double base = group.rmax + skin_ + tolerance_;
+  Index* stack = stack_.data();
+  int top = 0;
+  stack[top++] = 0;
+  while (top > 0) {
+    const Index id = stack[--top];
+    const Node& nd = nodes_[static_cast<std::size_t>(id)];
+    if (nd.end <= minEnd) continue;  // at or before the group's own leaf in Morton order
+    ++visits;
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = std::max(std::max(nd.lo[k] - hi[k], lo[k] - nd.hi[k]), 0.0);
+      d2 += d * d;
+    }
+    const double limit = base + nd.rmax;
+    if (d2 > limit * limit) continue;
+    if (isLeaf(nd)) {
+      candidates_.push_back(id);
+    } else {
+      stack[top++] = nd.right;
+      stack[top++] = id + 1;
+    }
+  }
+}
+
+template <bool kCount>
+void Lbvh::pairsImpl(std::vector<Pair>& out) const {
+  const Index n = static_cast<Index>(sorted_.size());
+  const double* p = packed_.data();
+  const double rootRadius = nodes_.front().rmax;
+  std::uint64_t tests = 0, visits = 0;
+  auto emit = [&](Index s, Index t) {
+    const Index i = sorted_[static_cast<std::size_t>(s)], j = sorted_[static_cast<std::size_t>(t)];
+    out.push_back(i < j ? Pair{i, j} : Pair{j, i});
+  };
+  Images images;
+  for (const Index leafId : leafNode_) {
+    const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
+    const Index first = -1 - leaf.right, end = leaf.end;
+    for (Index s = first; s < end; ++s) {  // pairs inside the leaf
+      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+      for (Index t = s + 1; t < end; ++t) {
+        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+        if constexpr (kCount) ++tests;
+        if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+      }
+    }
+    if (end == n) continue;
+    imagesOf(leaf.lo, leaf.hi, leaf.rmax + rootRadius + skin_ + tolerance_, images);
+    candidates_.clear();
+    for (int k = 0; k < images.count; ++k) candidateLeaves(leaf, images.shift[k], end, visits);
+    if (images.count > 1) {
+      // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
+      std::sort(candidates_.begin(), candidates_.end());
+      candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
+    }
+    for (Index s = first; s < end; ++s) {
+      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+      const double base = ps[3] + skin_ + tolerance_;
+      for (const Index c : candidates_) {
+        const Node& cn = nodes_[static_cast<std::size_t>(c)];
+        // The sphere's own bound on the candidate leaf, through any of the images.
+        if constexpr (kCount) ++visits;
+        bool near = false;
+        for (int k = 0; k < images.count && !near; ++k) {
+          const double* shift = images.shift[k];
+          double d2 = 0.0;
+          for (int a = 0; a < 3; ++a) {
+            const double q = ps[a] + shift[a];
+            const double d = std::max(std::max(cn.lo[a] - q, q - cn.hi[a]), 0.0);
+            d2 += d * d;
+          }
+          const double limit = base + cn.rmax;
+          near = d2 <= limit * limit;
+        }
+        if (!near) continue;
+        for (Index t = -1 - cn.right; t < cn.end; ++t) {
+          const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+          if constexpr (kCount) ++tests;
+          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+        }
+      }
+    }
+  }
+  if constexpr (kCount) {
+    counters_.pairTests += tests;
+    counters_.cellAccesses += visits;
+  }
+}
+
+void Lbvh::findPairs(const SphereView&, std::vector<Pair>& out) const {
+  out.clear();
+  if (nodes_.empty()) return;
+  if (counting_) {
+    pairsImpl<true>(out);
+  } else {
+    pairsImpl<false>(out);
+  }
+}
+
+void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<Index>& out) const {
+  out.clear();
+  if (!(reach >= 0.0 && reach <= skin_)) {
+    throw ConfigError(fmt::format("findNeighbours: reach {} must lie in [0, skin = {}]", reach, skin_));
+  }
+  if (i < 0 || i >= static_cast<Index>(slotOf_.size())) {
+    throw ConfigError(fmt::format("findNeighbours: particle {} out of range [0, {})", i, slotOf_.size()));
+  }
+  const Index slot = slotOf_[static_cast<std::size_t>(i)];
+  const double* x = packed_.data() + 4 * static_cast<std::ptrdiff_t>(slot);
+  Images images;
+  imagesOf(x, x, x[3] + nodes_.front().rmax + reach + tolerance_, images);
+  std::uint64_t tests = 0, visits = 0;
+  for (int k = 0; k < images.count; ++k) {
+    query<false>(x, images.shift[k], x[3], reach, 0, tests, visits, [&](Index t) {
+      if (t != slot) out.push_back(sorted_[static_cast<std::size_t>(t)]);
+    });
+  }
+  std::sort(out.begin(), out.end());
+  if (images.count > 1) out.erase(std::unique(out.begin(), out.end()), out.end());
+}
+
+std::size_t Lbvh::memoryBytes() const {
+  return nodes_.capacity() * sizeof(Node) + parent_.capacity() * sizeof(Index) + leafNode_.capacity() * sizeof(Index) +
+         sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) +
+         static_cast<std::size_t>(packed_.size()) * sizeof(double) + keys_.capacity() * sizeof(keys_[0]) +
+         leafKey_.capacity() * sizeof(std::uint64_t) +
+         (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) + work_.capacity() * sizeof(Pending) +
+         stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
+}
+
+std::string Lbvh::describe() const {
+  return fmt::format(
+      "lbvh {} spheres, {} leaves of <= {}, depth {}, cost proxy {:.3g}x of the last build (rebuild "
+      "above {:g}x), {} builds",
+      sorted_.size(), leafNode_.size(), leafSize_, depth_, qualityRatio(), rebuildFactor_, rebuilds_);
+}
+
+void Lbvh::validate(const SphereView& spheres) const {
+  const Index n = spheres.count();
+  if (static_cast<Index>(sorted_.size()) != n) throw std::logic_error("lbvh: slot count differs from N");
+  for (Index s = 0; s < n; ++s) {
+    const Index i = sorted_[static_cast<std::size_t>(s)];
+    if (slotOf_[static_cast<std::size_t>(i)] != s) throw std::logic_error(fmt::format("lbvh: slot of {} is stale", i));
+    for (int k = 0; k < 3; ++k) {
+      if (packed_(k, s) != spheres.centre(k, i)) throw std::logic_error(fmt::format("lbvh: stale centre of {}", i));
+    }
+  }
+  if (n == 0) {
+    if (!nodes_.empty()) throw std::logic_error("lbvh: nodes without spheres");
+    return;
+  }
+  std::vector<Index> covered(static_cast<std::size_t>(n), 0);
+  for (std::size_t p = 0; p < nodes_.size(); ++p) {
+    const Node& nd = nodes_[p];
+    auto inside = [&](const Node& c) {
+      for (int k = 0; k < 3; ++k) {
+        if (c.lo[k] < nd.lo[k] || c.hi[k] > nd.hi[k]) return false;
+      }
+      return c.rmax <= nd.rmax;
+    };
+    if (isLeaf(nd)) {
+      for (Index t = -1 - nd.right; t < nd.end; ++t) {
+        ++covered[static_cast<std::size_t>(t)];
+        for (int k = 0; k < 3; ++k) {
+          if (packed_(k, t) < nd.lo[k] || packed_(k, t) > nd.hi[k]) {
+            throw std::logic_error(fmt::format("lbvh: slot {} outside its leaf box", t));
+          }
+        }
+        if (packed_(3, t) > nd.rmax) throw std::logic_error(fmt::format("lbvh: leaf radius below slot {}", t));
+      }
+    } else {
+      const Node& a = nodes_[p + 1];
+      const Node& b = nodes_[static_cast<std::size_t>(nd.right)];
+      if (parent_[p + 1] != static_cast<Index>(p) ||
+          parent_[static_cast<std::size_t>(nd.right)] != static_cast<Index>(p)) {
+        throw std::logic_error(fmt::format("lbvh: parent links of node {} broken", p));
+      }
+      if (!inside(a) || !inside(b)) throw std::logic_error(fmt::format("lbvh: node {} does not bound its children", p));
+      if (nd.end != b.end) throw std::logic_error(fmt::format("lbvh: slot range of node {} wrong", p));
+    }
+  }
+  for (Index s = 0; s < n; ++s) {
+    if (covered[static_cast<std::size_t>(s)] != 1)
+      throw std::logic_error(fmt::format("lbvh: slot {} not in one leaf", s));
+  }
+}
+
+}  // namespace polydem::broadphase

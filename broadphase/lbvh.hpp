@@ -1,0 +1,125 @@
+#pragma once
+// Linear bounding-volume hierarchy (LBVH) broad phase.
+//
+// Spheres are sorted along a Morton (Z-order) curve of their centres and cut into leaves of
+// `leafSize` consecutive spheres; the binary radix tree over the leaves' keys is built with Karras'
+// per-node range/split search (Karras, "Maximizing parallelism in the construction of BVHs, octrees,
+// and k-d trees", HPG 2012, Sec. 4), which is O(M log M) for M leaves here because it
+// runs sequentially. Duplicate keys are disambiguated by the leaf index, as Karras does (Sec. 4).
+// The tree is then laid out in depth-first pre-order (left child = next node), so a traversal walks
+// memory forwards. Each node stores the box of the sphere centres below it and the largest radius
+// below it; sphere i visits a node when its centre is within r_i + r_max(node) + skin of the box
+// (Howard et al., Comput. Phys. Commun. 203 (2016) 45: one tree, per-particle search radius).
+//
+// findPairs: one stack-based traversal per leaf, with the leaf's box and largest radius, that only
+// looks at leaves later in Morton order (every node knows the end of its slot range, so earlier
+// subtrees are skipped whole), so each pair is found once. It collects the candidate leaves; each
+// sphere of the leaf then tests every candidate leaf's box with its own radius before the pair tests,
+// which keeps the per-sphere bound of Howard et al. at a 1/leafSize share of the traversals.
+// findNeighbours(i) is one traversal for sphere i alone. Periodic boundaries: the query (leaf box or
+// sphere) is imaged (up to 8 images near a corner), never the tree. Candidates are filtered with
+// spheresWithinReach on the minimum image.
+//
+// update(): refit. Moved spheres' leaves and their ancestors are re-bounded (O(|moved| log M)); the
+// topology is kept. Rebuild rule: the tree is rebuilt from scratch when the summed volume of the
+// node boxes dilated by their search radius (r_max(node) + r_min + skin), which is V times the
+// expected number of node visits of a small sphere's query (the proximity analogue of MacDonald &
+// Booth's surface-area heuristic, The Visual Computer 6 (1990) 153), exceeds `rebuildFactor`
+// (default 1.5) times its value right after the last build.
+//
+// Leaf size 4 is Howard et al.'s default, not tuned here (scripts/backends_report.sh takes lbvh:B to
+// tune it). `auto` does not consider trees: no validated model of their cost exists yet
+// (docs/benchmarks/backends/README.md).
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/broad_phase.hpp"
+
+namespace polydem::broadphase {
+
+class Lbvh final : public BroadPhase {
+ public:
+  std::string_view name() const override { return "lbvh"; }
+  Capabilities capabilities() const override { return {.complete = true, .incremental = true}; }
+  void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
+  void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;
+  std::size_t memoryBytes() const override;
+  std::string describe() const override;
+
+  /// Spheres per leaf (>= 1, default 4 as in Howard et al. 2016). Takes effect at the next build.
+  void setLeafSize(int size);
+  int leafSize() const { return leafSize_; }
+  /// Rebuild when the tree's cost proxy grows beyond this factor (> 1) of its post-build value.
+  void setRebuildFactor(double factor);
+  /// Full builds so far (build() calls plus rebuilds triggered by update()).
+  std::uint64_t rebuilds() const { return rebuilds_; }
+  /// Cost proxy now over its value after the last build (1 right after a build).
+  double qualityRatio() const { return builtQuality_ > 0.0 ? quality_ / builtQuality_ : 1.0; }
+  int depth() const { return depth_; }
+  /// Check the tree against the spheres (bounds contain centres and radii, ranges, parents); throws
+  /// std::logic_error. For tests.
+  void validate(const SphereView& spheres) const;
+
+ protected:
+  void doBuild(const SphereView& spheres) override;
+  void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
+
+ private:
+  struct Node {
+    double lo[3], hi[3];  // box of the centres below (m)
+    double rmax;          // largest radius below (m)
+    Index right;          // internal: right child (left child is this + 1); leaf: -1 - first slot
+    Index end;            // one past the last slot below
+  };
+  bool isLeaf(const Node& n) const { return n.right < 0; }
+  void boundLeaf(Index node);
+  void boundInternal(Index node);
+  double nodeCost(const Node& n) const;
+  void refitAll();
+  /// Periodic images of a query box [lo, hi] (a centre: lo = hi) that may reach spheres within
+  /// `radius` of it: shifts[k] for k < count (the first is the unshifted query).
+  struct Images {
+    double shift[27][3];
+    int count;
+  };
+  void imagesOf(const double* lo, const double* hi, double radius, Images& out) const;
+  /// Leaves after slot range end `minEnd` whose box may hold a sphere within reach of a sphere of
+  /// `group` (imaged by `shift`): appended to candidates_.
+  void candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const;
+  /// Traverse for the query centre x (original coordinates) of radius ri imaged by `shift`; visit(t)
+  /// is called for every slot t >= minSlot whose sphere is within `reach` (minimum image).
+  template <bool kCount, class Visit>
+  void query(const double* x, const double* shift, double ri, double reach, Index minSlot, std::uint64_t& tests,
+             std::uint64_t& visits, Visit&& visit) const;
+  template <bool kCount>
+  void pairsImpl(std::vector<Pair>& out) const;
+
+  int leafSize_ = 4;
+  double rebuildFactor_ = 1.5;
+  std::uint64_t rebuilds_ = 0;
+  double quality_ = 0.0, builtQuality_ = 0.0;
+  double tolerance_ = 0.0;  // absolute slack on box tests (m): rounding of imaged coordinates
+  int depth_ = 0;
+  std::vector<Node> nodes_;      // pre-order; root at 0
+  std::vector<Index> parent_;    // per node (-1 for the root)
+  std::vector<Index> leafNode_;  // node of leaf l (slots [l * leafSize, ...))
+  std::vector<Index> sorted_;    // particle per slot (Morton order)
+  std::vector<Index> slotOf_;    // slot per particle
+  Eigen::Matrix4Xd packed_;      // x, y, z, r per slot
+  // Build scratch (capacity kept: no allocation in steady state).
+  std::vector<std::pair<std::uint64_t, Index>> keys_;
+  std::vector<std::uint64_t> leafKey_;
+  std::vector<Index> childLeft_, childRight_;  // Karras layout: >= 0 internal, < 0 leaf (-1 - l)
+  struct Pending {
+    Index karras;  // node in the Karras layout (>= 0 internal, < 0 leaf)
+    Index parent;  // its parent in pre-order (-1 for the root)
+    bool isRight;
+    int depth;
+  };
+  std::vector<Pending> work_;  // pre-order relayout stack
+  // Query scratch.
+  mutable std::vector<Index> stack_;
+  mutable std::vector<Index> candidates_;
+};
+
+}  // namespace polydem::broadphase
