@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "core/errors.hpp"
+#include "core/interrupt.hpp"
 
 namespace polydem::integrators {
 
@@ -29,7 +30,8 @@ void CompressionSettings::validate() const {
 
 CompressionResult softCompress(ParticleStore& particles, const Box& box, DemSettings settings,
                                const CompressionSettings& compression,
-                               const std::function<void(const DemSimulation&, bool growing)>& progress) {
+                               const std::function<void(const DemSimulation&, bool growing)>& progress,
+                               bool stopOnInterrupt) {
   compression.validate();
   particles.velocity().setZero();
   if (particles.features().rotation) particles.angularVelocity().setZero();
@@ -52,28 +54,41 @@ CompressionResult softCompress(ParticleStore& particles, const Box& box, DemSett
       const double needed = std::cbrt(compression.targetPacking / sim.packingFraction());
       sim.growRadii(std::min(perChunk, needed));
     }
-    sim.advance(kChunk);
-    steps += kChunk;
+    steps += sim.advance(kChunk, stopOnInterrupt);
     if (progress && steps % 1000 == 0) progress(sim, true);
-    if (steps > compression.maxSteps) break;
+    if (steps > compression.maxSteps || (stopOnInterrupt && interruptRequested())) break;
   }
   result.growthSteps = steps;
   // Relax: damped motion until the overlaps are small (or the step budget is spent).
   constexpr std::int64_t kRelaxChunk = 100;
   double overlap = sim.contactStats().maxOverlapRatio;
-  while (overlap > compression.relaxedOverlap && steps < compression.maxSteps) {
-    sim.advance(kRelaxChunk);
-    steps += kRelaxChunk;
-    result.relaxSteps += kRelaxChunk;
+  const bool packed = sim.packingFraction() >= compression.targetPacking * (1.0 - 1e-12);
+  while (packed && overlap > compression.relaxedOverlap && steps < compression.maxSteps &&
+         !(stopOnInterrupt && interruptRequested())) {
+    const std::int64_t done = sim.advance(kRelaxChunk, stopOnInterrupt);
+    steps += done;
+    result.relaxSteps += done;
     overlap = sim.contactStats().maxOverlapRatio;
     if (progress && result.relaxSteps % 1000 == 0) progress(sim, false);
   }
-  if (overlap > compression.relaxedOverlap) {
-    throw SimulationError(fmt::format(
-        "soft compression: after {} steps the largest overlap is still {:.3g} of the smaller radius (target {}) at "
-        "packing fraction {:.4f}: the target is probably above jamming for this size distribution; lower "
+  result.interrupted = stopOnInterrupt && interruptRequested();
+  if (result.interrupted) {
+    result.reachedTarget = false;
+    result.reason = fmt::format("interrupted after {} steps at packing fraction {:.4f}", steps, sim.packingFraction());
+  } else if (!packed) {
+    result.reachedTarget = false;
+    result.reason = fmt::format(
+        "compression.max_steps = {} spent at packing fraction {:.4f} below the target {} (largest overlap {:.3g} of "
+        "the smaller radius): the target is probably above jamming for this size distribution; lower "
+        "compression.packing_fraction or raise compression.max_steps / compression.growth_rate",
+        compression.maxSteps, sim.packingFraction(), compression.targetPacking, overlap);
+  } else if (overlap > compression.relaxedOverlap) {
+    result.reachedTarget = false;
+    result.reason = fmt::format(
+        "after {} steps the largest overlap is still {:.3g} of the smaller radius (target {}) at packing fraction "
+        "{:.4f}: the target is probably above jamming for this size distribution; lower "
         "compression.packing_fraction or raise compression.max_overlap / compression.max_steps",
-        steps, overlap, compression.relaxedOverlap, sim.packingFraction()));
+        steps, overlap, compression.relaxedOverlap, sim.packingFraction());
   }
   result.packingFraction = sim.packingFraction();
   result.maxOverlapRatio = overlap;
