@@ -78,6 +78,7 @@ struct Start {
   std::map<std::string, std::string> attributes;
   std::optional<std::string> targetNotReached;  ///< the soft compression stopped before its target: why
   bool interrupted = false;                      ///< SIGINT/SIGTERM during the soft compression
+  std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;  ///< from the particle file
 };
 
 io::ParticleData readInput(const RelaxScene& scene) {
@@ -143,38 +144,24 @@ Start prepare(const RelaxScene& scene, bool quiet) {
     s.attributes["distribution"] = dist->describe();
   }
   s.particles.setMassesFromDensity(scene.density);
+  s.fileVelocity = fileVelocity;
+  s.fileAngularVelocity = fileAngularVelocity;
+  return s;
+}
 
-  if (scene.compression) {
-    const auto& c = *scene.compression;
-    Stopwatch clock;
-    auto progress = [&](const integrators::DemSimulation& sim, bool growing) {
-      if (!quiet) {
-        fmt::print(stderr, "  compression: step {:>9}  {}  packing fraction {:.4f}  max overlap / r {:.4f}\n",
-                   sim.step(), growing ? "growing " : "relaxing", sim.packingFraction(),
-                   sim.contactStats().maxOverlapRatio);
-      }
-    };
-    const integrators::CompressionResult r =
-        integrators::softCompress(s.particles, s.box, scene.dem, c, progress, true);
-    fmt::print("soft compression: packing fraction {:.4f} after {} growth + {} relaxation steps, max overlap / r "
-               "{:.4g}, {} rebuilds, {:.1f} s\n",
-               r.packingFraction, r.growthSteps, r.relaxSteps, r.maxOverlapRatio, r.rebuilds, clock.seconds());
-    if (!r.reachedTarget) {
-      s.targetNotReached = "soft compression: " + r.reason;
-      s.interrupted = r.interrupted;
-    }
-  }
-
+/// The initial velocities of the run (after the compression, if any).
+void setVelocities(const RelaxScene& scene, Start& s) {
+  const bool rotation = scene.dem.contact.usesFriction() || scene.dem.generalKernel;
   if (scene.initialVelocities == "file") {
-    if (!fileVelocity) {
+    if (!s.fileVelocity) {
       throw ConfigError(fmt::format("velocities.initial = \"file\" but {} has no velocity columns; use "
                                     "velocities.initial = \"impact\" or \"zero\"",
                                     scene.particleFile));
     }
     if (scene.compression) throw ConfigError("velocities.initial = \"file\" cannot follow [compression]");
-    s.particles.velocity() = *fileVelocity;
+    s.particles.velocity() = *s.fileVelocity;
     // A snapshot of a frictional run carries the spins: restarting from it is faithful.
-    if (rotation && fileAngularVelocity) s.particles.angularVelocity() = *fileAngularVelocity;
+    if (rotation && s.fileAngularVelocity) s.particles.angularVelocity() = *s.fileAngularVelocity;
   } else if (scene.initialVelocities == "impact") {
     const double v = integrators::assignImpactVelocities(contact::ContactModel(scene.dem.contact), s.particles,
                                                          scene.impactOverlap, scene.velocitySeed);
@@ -184,7 +171,6 @@ Start prepare(const RelaxScene& scene, bool quiet) {
   } else {
     s.particles.velocity().setZero();
   }
-  return s;
 }
 
 /// Particle data in id order, for snapshots and the final state: positions, velocities, angular
@@ -250,12 +236,23 @@ struct RunContext {
   std::vector<std::string> overrides;
   std::map<std::string, std::string> attributes;
   std::string origin;
+  std::string checkpointNote;  ///< non-empty: the report's checkpoint line (a checkpoint written elsewhere)
 };
 
-io::Checkpoint makeCheckpoint(const integrators::DemSimulation& sim, const RunContext& run) {
+/// `compression` non-null: the run is in its soft compression (phase "compression"), else in the time
+/// loop (phase "run").
+io::Checkpoint makeCheckpoint(const integrators::DemSimulation& sim, const RunContext& run,
+                              const integrators::CompressionProgress* compression = nullptr) {
   const integrators::DemState st = sim.state();
   io::Checkpoint c;
   c.kind = kCheckpointKind;
+  c.text["phase"] = compression ? "compression" : "run";
+  if (compression) {
+    const integrators::CompressionProgress& p = *compression;
+    c.integer["compression_progress"] = {static_cast<std::int64_t>(p.phase), p.steps, p.growthSteps, p.relaxSteps,
+                                         p.packed ? 1 : 0};
+    c.real["compression_values"] = {p.overlap, p.contactDuration, p.viscousDamping};
+  }
   c.text["scene"] = run.sceneText;
   c.text["scene_source"] = run.sceneSource;
   std::string overrides, attributes;
@@ -345,6 +342,25 @@ integrators::DemState stateFrom(const io::Checkpoint& c) {
   st.timeStep.idA = static_cast<Index>(pair[2]);
   st.timeStep.idB = static_cast<Index>(pair[3]);
   return st;
+}
+
+integrators::CompressionProgress compressionFrom(const io::Checkpoint& c) {
+  const auto& i = c.integers("compression_progress");
+  const auto& r = c.reals("compression_values");
+  if (i.size() != 5 || r.size() != 3 || i[0] < 0 || i[0] > 2) {
+    throw InputError(fmt::format("{}: checkpoint entry compression_progress / compression_values: malformed",
+                                 c.source.string()));
+  }
+  integrators::CompressionProgress p;
+  p.phase = static_cast<integrators::CompressionProgress::Phase>(i[0]);
+  p.steps = i[1];
+  p.growthSteps = i[2];
+  p.relaxSteps = i[3];
+  p.packed = i[4] != 0;
+  p.overlap = r[0];
+  p.contactDuration = r[1];
+  p.viscousDamping = r[2];
+  return p;
 }
 
 std::vector<std::string> lines(const std::string& text) {
@@ -552,13 +568,62 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
   if (targetNotReached) fmt::print("TARGET NOT REACHED    {}\n", *targetNotReached);
   if (!scene.finalState.empty()) fmt::print("final state           {}\n", scene.finalState);
   if (!scene.timeseries.empty()) fmt::print("time series           {}\n", scene.timeseries);
-  if (!scene.checkpoint.empty()) {
+  if (!run.checkpointNote.empty()) {
+    fmt::print("checkpoint            {}\n", run.checkpointNote);
+  } else if (!scene.checkpoint.empty()) {
     fmt::print("checkpoint            {} (step {}): continue with polydem relax --resume {}{}\n", scene.checkpoint,
                sim.step(), scene.checkpoint, interrupted ? "" : " --steps N");
   } else if (interrupted) {
     fmt::print("checkpoint            none (set output.checkpoint to make a run resumable)\n");
   }
   return summary;
+}
+
+/// Run the soft compression of `scene` chunk by chunk; between chunks poll interrupts and write
+/// checkpoints (phase "compression") as the scene asks. On return `start` holds the compressed particles
+/// at rest, marked if the target was not reached or the run was interrupted.
+void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Start& start, const RunContext& run,
+                   bool quiet, bool checkpoints) {
+  Stopwatch clock;
+  double lastCheckpoint = 0.0;
+  std::int64_t reported = c.progress().steps / 1000;
+  auto writeCheckpoint = [&] {
+    io::writeCheckpoint(scene.checkpoint, makeCheckpoint(c.simulation(), run, &c.progress()));
+    lastCheckpoint = clock.seconds();
+  };
+  checkpoints = checkpoints && !scene.checkpoint.empty();
+  bool interrupted = interruptRequested();
+  while (!interrupted) {
+    const std::int64_t before = c.progress().steps;
+    if (!c.advance()) break;
+    const std::int64_t steps = c.progress().steps;
+    if (!quiet && steps / 1000 > reported) {
+      fmt::print(stderr, "  compression: step {:>9}  {}  packing fraction {:.4f}  max overlap / r {:.4f}\n", steps,
+                 c.growing() ? "growing " : "relaxing", c.simulation().packingFraction(),
+                 c.simulation().contactStats().maxOverlapRatio);
+    }
+    const std::int64_t interval = scene.checkpointInterval;
+    const bool byStep = interval > 0 && steps / interval != before / interval;  // crossed a multiple
+    reported = std::max(reported, steps / 1000);
+    interrupted = interruptRequested();
+    if (checkpoints && !interrupted &&
+        (byStep || (scene.checkpointSeconds > 0.0 && clock.seconds() - lastCheckpoint >= scene.checkpointSeconds))) {
+      writeCheckpoint();
+    }
+  }
+  if (interrupted && checkpoints) writeCheckpoint();
+  const integrators::CompressionResult r = c.result();
+  fmt::print("soft compression: packing fraction {:.4f} after {} growth + {} relaxation steps, max overlap / r "
+             "{:.4g}, {} rebuilds, {:.1f} s\n",
+             r.packingFraction, r.growthSteps, r.relaxSteps, r.maxOverlapRatio, r.rebuilds, clock.seconds());
+  if (interrupted) {
+    start.interrupted = true;
+    start.targetNotReached = "soft compression interrupted: " + r.reason;
+  } else if (!r.reachedTarget) {
+    start.targetNotReached = "soft compression: " + r.reason;
+  }
+  start.particles = c.particles();
+  start.box = c.simulation().box();
 }
 
 /// "--sweep NAME=v1,v2,...": strict numbers (no trailing characters, finite), dt-factor >= 5, skin >= 0.
@@ -606,8 +671,20 @@ int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::v
   scene.checkpoint.clear();
   checkOutputs(scene, inputs, {{csvPath, "--sweep table"}, {png, "--sweep plot"}, {script, "--sweep plot script"}});
 
-  const Start start = prepare(scene, quiet);
-  if (start.targetNotReached) throw SimulationError(*start.targetNotReached);
+  Start start = prepare(scene, quiet);
+  RunContext context;
+  context.attributes = start.attributes;
+  context.origin = start.origin;
+  if (scene.compression) {
+    integrators::SoftCompression c(std::move(start.particles), start.box, scene.dem, *scene.compression);
+    compressStart(scene, c, start, context, quiet, false);
+    if (start.interrupted) return kExitInterrupted;
+    if (start.targetNotReached) {
+      fmt::print("TARGET NOT REACHED: {}; no sweep run\n", *start.targetNotReached);
+      return kExitTargetNotReached;
+    }
+  }
+  setVelocities(scene, start);
   const double baseFactor = scene.dem.stepsPerContact;
   const std::int64_t baseSteps = scene.steps;
   struct Row {
@@ -616,9 +693,6 @@ int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::v
     RunSummary run;
   };
   std::vector<Row> rows;
-  RunContext context;
-  context.attributes = start.attributes;
-  context.origin = start.origin;
   for (double v : values) {
     RelaxScene s = scene;
     if (what == "dt-factor") {
@@ -778,32 +852,58 @@ Runner addRelax(CLI::App& app) {
     if (!opt->sweep.empty()) return runSweep(scene, opt->sweep, opt->quiet, inputs);
     checkOutputs(scene, inputs);
 
+    Start start;
+    std::optional<integrators::SoftCompression> compression;
     if (checkpoint) {
       const integrators::DemState state = stateFrom(*checkpoint);
-      if (scene.steps < state.step) {
-        throw ConfigError(fmt::format("run.steps = {} is below the checkpoint's step {}: run.steps counts from step "
-                                      "0, give a larger total with --steps",
-                                      scene.steps, state.step));
+      if (checkpoint->string("phase") == "run") {
+        if (scene.steps < state.step) {
+          throw ConfigError(fmt::format("run.steps = {} is below the checkpoint's step {}: run.steps counts from "
+                                        "step 0, give a larger total with --steps",
+                                        scene.steps, state.step));
+        }
+        integrators::DemSettings settings = scene.dem;
+        if (scene.initialVelocities == "impact") settings.impactOverlap = scene.impactOverlap;
+        const RunSummary r = runScene(scene, integrators::DemSimulation::restore(state, settings), context,
+                                      opt->quiet, false, true, std::nullopt);
+        return static_cast<int>(r.interrupted ? kExitInterrupted : kExitOk);
       }
-      const RunSummary r = runScene(scene, integrators::DemSimulation::restore(state, scene.dem), context,
-                                    opt->quiet, false, true, std::nullopt);
-      return static_cast<int>(r.interrupted ? kExitInterrupted : kExitOk);
+      if (checkpoint->string("phase") != "compression" || !scene.compression) {
+        throw InputError(fmt::format("{}: checkpoint phase '{}' does not match its scene", opt->resume,
+                                     checkpoint->string("phase")));
+      }
+      const integrators::CompressionProgress progress = compressionFrom(*checkpoint);
+      compression.emplace(state, scene.dem, *scene.compression, progress);
+      start.origin = context.origin;
+      start.attributes = context.attributes;
+      fmt::print("resumed the soft compression at step {}\n", progress.steps);
+    } else {
+      start = prepare(scene, opt->quiet);
+      context.attributes = start.attributes;
+      context.origin = start.origin;
+      if (scene.initialVelocities == "file" && scene.compression) {
+        throw ConfigError("velocities.initial = \"file\" cannot follow [compression]");
+      }
+      if (scene.compression) compression.emplace(std::move(start.particles), start.box, scene.dem, *scene.compression);
     }
-    Start start = prepare(scene, opt->quiet);
-    context.attributes = start.attributes;
-    context.origin = start.origin;
+    if (compression) compressStart(scene, *compression, start, context, opt->quiet, true);
     if (start.targetNotReached) {
       // Not the state that was asked for: write what there is, marked, and do not run on it.
       fmt::print("TARGET NOT REACHED: {}\n", *start.targetNotReached);
       RelaxScene stop = scene;
       stop.steps = 0;
-      stop.checkpoint.clear();  // a compression is not resumable; a checkpoint would resume the run on it
-      integrators::DemSettings settings = scene.dem;
-      settings.impactOverlap = 0.0;
-      runScene(stop, integrators::DemSimulation(std::move(start.particles), start.box, settings), context,
+      stop.checkpoint.clear();  // an interrupted compression wrote its own; a finished one has nothing to resume
+      if (start.interrupted && !scene.checkpoint.empty()) {
+        context.checkpointNote = fmt::format("{} (soft compression, step {}): continue with polydem relax --resume {}",
+                                             scene.checkpoint, compression->progress().steps, scene.checkpoint);
+      } else if (!scene.checkpoint.empty()) {
+        context.checkpointNote = "none written (a soft compression that ended short of its target is not resumed)";
+      }
+      runScene(stop, integrators::DemSimulation(std::move(start.particles), start.box, scene.dem), context,
                opt->quiet, false, false, start.targetNotReached);
       return static_cast<int>(start.interrupted ? kExitInterrupted : kExitTargetNotReached);
     }
+    setVelocities(scene, start);
     integrators::DemSettings settings = scene.dem;
     if (scene.initialVelocities == "impact") settings.impactOverlap = scene.impactOverlap;
     RelaxScene running = scene;

@@ -351,6 +351,41 @@ TEST(SoftCompression, ReachesTheTargetWithSmallOverlapsAndKeepsTheSizeShape) {
   EXPECT_NO_THROW(sim.advance(200));
 }
 
+TEST(SoftCompression, ResumedFromItsStateContinuesBitForBit) {
+  // Issue 15: a compression checkpointed mid-growth and mid-relaxation (DemState + CompressionProgress)
+  // ends in exactly the state of the uninterrupted one.
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 200; ++i) radii.push_back(1.0 + (i % 3) * 0.5);
+  const ParticleStore start = test::latticeGas(radii, 0.3, box, 12, true);
+  DemSettings settings;
+  settings.contact = linear(0.5, 0.3);
+  settings.gravity = Eigen::Vector3d(0.0, 0.0, -1.0);  // dropped by the compression (the box is periodic)
+  CompressionSettings c;
+  c.targetPacking = 0.5;
+  c.growthRate = 1e-2;
+  c.relaxedOverlap = 0.005;
+  SoftCompression straight(start, box, settings, c);
+  while (straight.advance()) {
+  }
+  ASSERT_TRUE(straight.result().reachedTarget) << straight.result().reason;
+  ASSERT_GT(straight.progress().relaxSteps, 0);
+  for (std::int64_t stopAt : {std::int64_t{140}, straight.progress().growthSteps + 100}) {
+    SCOPED_TRACE(stopAt);
+    SoftCompression first(start, box, settings, c);
+    while (first.progress().steps < stopAt && first.advance()) {
+    }
+    SoftCompression resumed(first.simulation().state(), settings, c, first.progress());
+    while (resumed.advance()) {
+    }
+    EXPECT_EQ(resumed.progress().steps, straight.progress().steps);
+    EXPECT_TRUE(resumed.particles().position() == straight.particles().position());
+    EXPECT_TRUE(resumed.particles().radius() == straight.particles().radius());
+    EXPECT_TRUE(resumed.particles().inverseMass() == straight.particles().inverseMass());
+    EXPECT_EQ(resumed.result().maxOverlapRatio, straight.result().maxOverlapRatio);
+  }
+}
+
 TEST(SoftCompression, TargetAboveJammingIsReported) {
   Box box;
   ParticleStore p = test::latticeGas(std::vector<double>(64, 1.0), 0.3, box, 12);
