@@ -131,7 +131,7 @@ polydem_cli_test(NAME relax_compression_target_not_reached
                  EXIT 4 PASS "TARGET NOT REACHED +soft compression: compression.max_steps = 2000 spent" LABELS relax)
 
 # Multi-step tests: numeric options, resume byte for byte, SIGINT.
-foreach(script relax_options relax_resume relax_interrupt relax_compress_resume)
+foreach(script relax_options relax_resume relax_interrupt relax_compress_resume relax_boundaries)
   add_test(NAME cli_${script} COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/${script}.sh $<TARGET_FILE:polydem>
            ${POLYDEM_CLI_WORK}/${script})
   set_tests_properties(cli_${script} PROPERTIES TIMEOUT 300 LABELS "cli;relax")
