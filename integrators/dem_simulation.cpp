@@ -599,7 +599,19 @@ void DemSimulation::blowUp(Index slot, const std::string& what) const {
 }
 
 void DemSimulation::fail(const std::string& what, const std::string& cause) const {
-  throw SimulationError(fmt::format("step {} (t = {:.6g} s): {}. Likely cause: {}", step_, time(), what, cause));
+  // The energy against step 0 tells a blow-up (energy grown by orders of magnitude) from a local fault.
+  const double energy = energies().total();
+  std::string energyText;
+  if (std::isfinite(energy)) {
+    const bool blowUp = std::abs(energy) > 10.0 * std::abs(initialEnergy_) && initialEnergy_ != 0.0;
+    energyText = fmt::format("; total energy {:.4g} J (step 0: {:.4g} J){}", energy, initialEnergy_,
+                             blowUp ? fmt::format(", {:.3g} times larger: the run blew up", energy / initialEnergy_)
+                                    : std::string());
+  } else {
+    energyText = fmt::format("; total energy not finite (step 0: {:.4g} J): the run blew up", initialEnergy_);
+  }
+  throw SimulationError(
+      fmt::format("step {} (t = {:.6g} s): {}{}. Likely cause: {}", step_, time(), what, energyText, cause));
 }
 
 void DemSimulation::checkStability() const {
