@@ -70,7 +70,8 @@ double peakMemoryMiB() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: KiB
 }
 
-/// The starting state: read or generated, masses from density, optionally compressed, velocities set.
+/// The starting state: read or generated, masses from density; then compressed (compressStart) and
+/// given velocities (setVelocities).
 struct Start {
   ParticleStore particles;
   Box box;
@@ -81,6 +82,7 @@ struct Start {
   std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;  ///< from the particle file
 };
 
+/// The particle file of `scene`, its boundaries checked against box.boundaries.
 io::ParticleData readInput(const RelaxScene& scene) {
   const auto path = scene.resolve(scene.particleFile);
   io::ParticleData data = io::readParticles(path, scene.boundaries);
@@ -102,7 +104,8 @@ io::ParticleData readInput(const RelaxScene& scene) {
   return data;
 }
 
-Start prepare(const RelaxScene& scene, bool quiet) {
+/// Read or generate the particles of `scene` and set their masses.
+Start prepare(const RelaxScene& scene) {
   Start s;
   const bool rotation = scene.dem.contact.usesFriction() || scene.dem.generalKernel;
   std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;
@@ -671,7 +674,7 @@ int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::v
   scene.checkpoint.clear();
   checkOutputs(scene, inputs, {{csvPath, "--sweep table"}, {png, "--sweep plot"}, {script, "--sweep plot script"}});
 
-  Start start = prepare(scene, quiet);
+  Start start = prepare(scene);
   RunContext context;
   context.attributes = start.attributes;
   context.origin = start.origin;
@@ -878,7 +881,7 @@ Runner addRelax(CLI::App& app) {
       start.attributes = context.attributes;
       fmt::print("resumed the soft compression at step {}\n", progress.steps);
     } else {
-      start = prepare(scene, opt->quiet);
+      start = prepare(scene);
       context.attributes = start.attributes;
       context.origin = start.origin;
       if (scene.initialVelocities == "file" && scene.compression) {
