@@ -44,6 +44,7 @@
 #include "integrators/dem_simulation.hpp"
 #include "integrators/initial_velocities.hpp"
 #include "integrators/soft_compression.hpp"
+#include "polydem/config.hpp"
 
 namespace polydem::app {
 
@@ -395,6 +396,11 @@ struct RunSummary {
 /// Every output of the scene (and the sweep's), checked before anything is computed.
 void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
                   const std::vector<std::pair<std::filesystem::path, std::string>>& extra = {}) {
+  if (!scene.checkpoint.empty() && !POLYDEM_WITH_HDF5) {
+    throw ConfigError(fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, and this polydem was "
+                                  "built with POLYDEM_WITH_HDF5=OFF",
+                                  scene.checkpoint));
+  }
   std::vector<std::pair<std::filesystem::path, std::string>> outputs = extra;
   if (!scene.finalState.empty()) outputs.emplace_back(scene.finalState, "output.final");
   if (!scene.timeseries.empty()) outputs.emplace_back(scene.timeseries, "output.timeseries");

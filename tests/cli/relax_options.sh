@@ -26,5 +26,11 @@ for v in 0 -1 nan 2x 5000; do expect_refused --threads "$v"; done
 if ! "$polydem" relax relax_gas.toml -q --steps 20 --dt-factor 60 --skin 2e-4 --threads 1 > ok.log 2>&1; then
   echo "FAIL: valid options refused"; cat ok.log; failures=$((failures + 1))
 fi
-[ "$failures" -eq 0 ] && echo "all refused as expected"
+# --print-defaults is a scene that runs as printed (section 4).
+"$polydem" relax --print-defaults > defaults.toml || { echo "FAIL: --print-defaults"; failures=$((failures + 1)); }
+if ! "$polydem" relax defaults.toml -q --steps 10 > defaults.log 2>&1; then
+  echo "FAIL: the printed defaults do not run"; cat defaults.log; failures=$((failures + 1))
+fi
+grep -q "broad phase: auto" defaults.log || { echo "FAIL: default broad phase is not auto"; failures=$((failures + 1)); }
+[ "$failures" -eq 0 ] && echo "all refused as expected; the printed defaults run"
 exit "$failures"
