@@ -418,19 +418,23 @@ void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::pa
 }
 
 /// The time series of a resumed run: the rows up to the checkpoint's step are kept (a run interrupted
-/// after its last checkpoint wrote rows beyond it, which the resumed run writes again).
+/// after its last checkpoint wrote rows beyond it, which the resumed run writes again), and a last line
+/// without its newline (a run killed mid-write) is dropped.
 void truncateTimeSeries(const std::string& file, std::int64_t step) {
   std::ifstream in(file);
   if (!in) return;
-  std::string kept, line;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (!header) {
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  std::string kept;
+  std::size_t begin = 0;
+  for (std::size_t end = text.find('\n'); end != std::string::npos; begin = end + 1, end = text.find('\n', begin)) {
+    const std::string line = text.substr(begin, end - begin);
+    if (!kept.empty()) {  // the header is always kept
       const auto rowStep = io::parseFiniteDouble(line.substr(0, line.find(',')));
       if (!rowStep || *rowStep > static_cast<double>(step)) break;
     }
     kept += line + "\n";
-    header = false;
   }
   in.close();
   io::writeFileAtomically(file, kept);
