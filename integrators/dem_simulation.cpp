@@ -563,8 +563,9 @@ std::size_t DemSimulation::memoryBytes() const {
 
 std::string DemSimulation::dtHint() const {
   const double f = timeStep_.stepsPerContact;
-  const std::string law = fmt::format("{} = {:g}", model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K",
-                                      model_.parameters().stiffness);
+  const std::string law =
+      fmt::format("{} = {:g}", model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K",
+                  model_.parameters().stiffness);
   if (settings_.timeStep > 0.0) {
     // The user fixed dt: run.dt_factor has no effect, so the fix must name run.dt.
     return fmt::format("run.dt = {:.4g} s is too large for stiffness {}: it is t_c,min / {:.3g} (t_c,min = {:.4g} s); "

@@ -56,7 +56,8 @@ class SoftCompression {
  public:
   /// Start compressing `particles` (velocities zeroed) with the law and broad phase of `settings`; its
   /// gravity is dropped and its damping replaced by the compression's.
-  SoftCompression(ParticleStore particles, const Box& box, DemSettings settings, const CompressionSettings& compression);
+  SoftCompression(ParticleStore particles, const Box& box, DemSettings settings,
+                  const CompressionSettings& compression);
   /// Continue a compression saved at a chunk boundary. `settings` as given to the first constructor.
   SoftCompression(const DemState& state, DemSettings settings, const CompressionSettings& compression,
                   const CompressionProgress& progress);

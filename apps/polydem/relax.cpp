@@ -321,7 +321,8 @@ integrators::DemState stateFrom(const io::Checkpoint& c) {
   const auto& L = c.reals("box_lengths");
   const auto& periodic = c.integers("box_periodic");
   if (L.size() != 3 || periodic.size() != 3) {
-    throw InputError(fmt::format("{}: checkpoint entry box_lengths / box_periodic: expected 3 values", c.source.string()));
+    throw InputError(
+        fmt::format("{}: checkpoint entry box_lengths / box_periodic: expected 3 values", c.source.string()));
   }
   std::array<Boundary, 3> b{};
   for (std::size_t k = 0; k < 3; ++k) b[k] = periodic[k] ? Boundary::Periodic : Boundary::Wall;
@@ -534,7 +535,8 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
   if (!interrupted) sim.checkStability();
   if (!scene.checkpoint.empty()) writeCheckpoint();
   if (!scene.finalState.empty()) io::writeParticles(scene.finalState, snapshotOf(sim, attributes));
-  if (!interrupted && !scene.snapshot.empty() && (scene.snapshotInterval == 0 || sim.step() % scene.snapshotInterval != 0)) {
+  if (!interrupted && !scene.snapshot.empty() &&
+      (scene.snapshotInterval == 0 || sim.step() % scene.snapshotInterval != 0)) {
     writeSnapshot();
   }
 
@@ -654,7 +656,8 @@ std::vector<double> sweepValues(const std::string& what, const std::string& list
                                               : fmt::format("'{}'", item)));
     }
     const double lo = what == "dt-factor" ? integrators::kMinStepsPerContact : 0.0;
-    if (*v < lo) throw ConfigError(fmt::format("--sweep {}: {} is below the smallest allowed value {:g}", what, item, lo));
+    if (*v < lo)
+      throw ConfigError(fmt::format("--sweep {}: {} is below the smallest allowed value {:g}", what, item, lo));
     values.push_back(*v);
   }
   if (values.empty() || list.empty() || list.back() == ',') {

@@ -384,7 +384,8 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     throw ConfigError(fmt::format("output.checkpoint_seconds must be >= 0 (0 = none), got {}", s.checkpointSeconds));
   }
   if (!s.checkpoint.empty() && !(s.checkpoint.ends_with(".h5") || s.checkpoint.ends_with(".hdf5"))) {
-    throw ConfigError(fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, name it *.h5", s.checkpoint));
+    throw ConfigError(
+        fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, name it *.h5", s.checkpoint));
   }
   if (!s.snapshot.empty() && s.snapshotInterval > 0 && s.snapshot.find("{step}") == std::string::npos) {
     throw ConfigError(fmt::format("output.snapshot = \"{}\" needs a {{step}} placeholder when "
@@ -416,7 +417,8 @@ std::string defaultSceneToml() {
   t += "[particles]\n";
   t += "# file = \"packing.txt\"  # required unless count is given: a particle file (text or .h5)\n";
   t += "count = 1000  # required unless file is given: generate this many spheres\n";
-  t += fmt::format("distribution = \"{}\"  # mono, bi, uniform-radius, uniform-volume, power-law, log-normal\n", d.kind);
+  t +=
+      fmt::format("distribution = \"{}\"  # mono, bi, uniform-radius, uniform-volume, power-law, log-normal\n", d.kind);
   t += fmt::format("rmin = {}  # m\n", num(d.rmin));
   t += fmt::format("omega = {}  # rmax / rmin\n", num(d.omega));
   t += fmt::format("alpha = {}  # power-law exponent\n", num(d.alpha));
@@ -444,7 +446,8 @@ std::string defaultSceneToml() {
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
                    num(c.referenceVelocity));
   t += "[velocities]\n";
-  t += fmt::format("initial = \"{}\"  # impact, file, zero (\"file\" when particles.file is given)\n", s.initialVelocities);
+  t += fmt::format("initial = \"{}\"  # impact, file, zero (\"file\" when particles.file is given)\n",
+                   s.initialVelocities);
   t += fmt::format("overlap = {}\n", num(s.impactOverlap));
   t += fmt::format("seed = {}\n\n", s.velocitySeed);
   t += "# [compression]  # optional; absent = no compression\n";

@@ -187,7 +187,8 @@ bool sameValue(const std::string& a, const std::string& b) {
 
 TEST(RelaxScene, PrintedDefaultsAreAValidSceneWithTheReadersDefaults) {
   const RelaxScene printed = parseRelaxScene(defaultSceneToml());
-  const RelaxScene minimal = parseRelaxScene("[particles]\ncount = 1000\n[contact]\nstiffness = 1000.0\n[run]\nsteps = 1000\n");
+  const RelaxScene minimal =
+      parseRelaxScene("[particles]\ncount = 1000\n[contact]\nstiffness = 1000.0\n[run]\nsteps = 1000\n");
   EXPECT_EQ(printed.dem.broadPhase, "auto");
   EXPECT_EQ(printed.dem.broadPhase, minimal.dem.broadPhase);
   EXPECT_EQ(printed.dem.skin, minimal.dem.skin);
