@@ -454,9 +454,13 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
     fmt::print("time step: {}\n", sim.timeStepChoice().describe());
     fmt::print("broad phase: {} (skin {:.4g}, rebuilt when a particle moved skin/2)\n",
                sim.neighbours().backend().describe(), sim.neighbours().skin());
-    fmt::print("{}: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J\n",
-               resumed ? fmt::format("resumed at step {}", sim.step()) : std::string("start"), s0.contacts,
-               s0.maxOverlapRatio, sim.initialEnergy());
+    if (resumed) {
+      fmt::print("resumed at step {}: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J (step 0: {:.6g} J)\n",
+                 sim.step(), s0.contacts, s0.maxOverlapRatio, sim.energies().total(), sim.initialEnergy());
+    } else {
+      fmt::print("start: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J\n", s0.contacts,
+                 s0.maxOverlapRatio, sim.initialEnergy());
+    }
   }
   std::map<std::string, std::string> attributes = run.attributes;
   if (targetNotReached) attributes["target_not_reached"] = *targetNotReached;

@@ -29,6 +29,7 @@ cmp -s a_final.txt b_final.txt && fail "the half run already equals the whole ru
 "$polydem" relax --resume b.h5 --steps 1000 > c.log 2>&1; code=$?
 [ "$code" -eq 2 ] && grep -q "below the checkpoint's step 1500" c.log || { cat c.log; fail "--steps below the checkpoint"; }
 
+cp b.h5 b1500.h5  # the resumed run overwrites b.h5 with its own checkpoint at step 3000
 # Rows written after the checkpoint by a run that then died (one of them half-written) are dropped.
 printf '1525,0.1,0.2\n1550,0.1,0.' >> b.csv
 run relax --resume b.h5 -q --steps 3000 > r.log 2>&1 || { cat r.log; fail "resume"; }
@@ -36,5 +37,14 @@ grep -q "resumed at step 1500" r.log || { cat r.log; fail "not resumed at step 4
 cmp a_final.txt b_final.txt || fail "final states differ"
 cmp a.csv b.csv || { diff a.csv b.csv | head; fail "time series differ"; }
 grep -q "^3000," b.csv || fail "time series does not reach step 800"
-# Snapshots carry angular velocities (friction is on): 7 columns of velocity data at least.
+# --threads is allowed with --resume because any thread count gives the same trajectory: check it.
+if "$polydem" relax --resume b1500.h5 -q --steps 3000 --threads 2 --set output.final=\"t_final.txt\" \
+     --set output.timeseries=\"\" > t.log 2>&1; then
+  grep -q "resumed at step 1500" t.log || { cat t.log; fail "2 threads: not resumed at step 1500"; }
+  cmp a_final.txt t_final.txt || fail "resumed on 2 threads differs"
+elif grep -q "POLYDEM_WITH_OPENMP=ON" t.log; then
+  echo "(serial build: --threads 2 not checked)"
+else
+  cat t.log; fail "resume with --threads 2"
+fi
 echo "resumed run is byte-identical: $(wc -l < a.csv) time-series rows, $(wc -l < a_final.txt) lines of final state"
