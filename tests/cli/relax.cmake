@@ -118,6 +118,9 @@ polydem_cli_test(NAME relax_sweep_negative COMMAND relax relax_gas.toml -q --swe
 polydem_cli_test(NAME relax_sweep_empty_item COMMAND relax relax_gas.toml -q --sweep dt-factor=10,,20
                  EXIT 2 PASS "--sweep dt-factor: '' is not a finite number" LABELS relax)
 
+polydem_cli_test(NAME relax_sweep_writes_table COMMAND relax relax_gas.toml -q --sweep dt-factor=20,50 --steps 100
+                 PASS "table: relax_gas_sweep_dt-factor.csv" LABELS relax)
+
 # N = 0, 1, 2: a clear error or an honest report.
 polydem_cli_test(NAME relax_n0 COMMAND relax relax_file_n0.toml -q EXIT 2 PASS "no particles" LABELS relax)
 polydem_cli_test(NAME relax_n1 COMMAND relax relax_file_n1.toml -q PASS "relative change undefined" LABELS relax)
