@@ -71,6 +71,15 @@ void ContactHistory::remap(std::span<const std::uint64_t> newKeys) {
   }
 }
 
+void ContactHistory::assign(std::span<const std::uint64_t> keys, std::span<const double> values) {
+  if (values.size() != keys.size() * static_cast<std::size_t>(width_)) {
+    throw std::invalid_argument("ContactHistory::assign: values must hold width values per key");
+  }
+  keys_.assign(keys.begin(), keys.end());
+  values_.assign(values.begin(), values.end());
+  keysAscending_ = std::is_sorted(keys_.begin(), keys_.end());
+}
+
 std::size_t ContactHistory::activeCount() const {
   std::size_t n = 0;
   for (std::size_t c = 0; c < keys_.size(); ++c) n += active(c) ? 1 : 0;

@@ -28,6 +28,12 @@ class ContactHistory {
     return values_.data() + contact * static_cast<std::size_t>(width_);
   }
   std::span<const std::uint64_t> keys() const { return keys_; }
+  /// All values, `width` per contact in list order (checkpoints).
+  std::span<const double> allValues() const { return values_; }
+
+  /// Replace keys and values wholesale (a resumed run: the same list, the saved values). Throws
+  /// std::invalid_argument unless values.size() == width * keys.size().
+  void assign(std::span<const std::uint64_t> keys, std::span<const double> values);
 
   /// Replace the contact list by one with `newKeys` (in list order, unique). Values of keys present in
   /// both lists carry over, the others start at zero. O(P) when newKeys ascend, O(P log A) otherwise

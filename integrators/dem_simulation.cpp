@@ -13,6 +13,7 @@
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
+#include "core/interrupt.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::integrators {
@@ -109,21 +110,7 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
       model_(settings.contact),
       verlet_(broadphase::makeBroadPhase(settings.broadPhase), resolveSkin(settings.skin, particles_)) {
   settings_.skin = verlet_.skin();
-  settings_.stability.validate();
-  if (!settings_.gravity.allFinite()) throw ConfigError("run.gravity must be finite");
-  if (!(settings_.viscousDamping >= 0.0 && std::isfinite(settings_.viscousDamping))) {
-    throw ConfigError(fmt::format("run.viscous_damping must be >= 0, got {}", settings_.viscousDamping));
-  }
-  if (!(settings_.timeStep >= 0.0 && std::isfinite(settings_.timeStep))) {
-    throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", settings_.timeStep));
-  }
-  if (settings_.threads < 1) throw ConfigError(fmt::format("run.threads must be >= 1, got {}", settings_.threads));
-  if (settings_.threads > 1 && !POLYDEM_WITH_OPENMP) {
-    throw ConfigError(fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON (this one is serial); "
-                                  "use run.threads = 1",
-                                  settings_.threads));
-  }
-  verlet_.setBlocks(settings_.threads);
+  validateSettings();
 
   // Particles: sane values, periodic coordinates wrapped, walled ones inside the box.
   const Index n = particles_.count();
@@ -157,13 +144,7 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
     const std::vector<Index> order = mortonOrder(particles_.position(), box_);
     particles_.reorder(order);
   }
-
-  flags_.walls = box_.hasWalls();
-  flags_.gravity = settings_.gravity != Eigen::Vector3d::Zero();
-  flags_.viscous = settings_.viscousDamping > 0.0;
-  kernel_ = contact::selectForceKernel(model_, flags_, settings_.generalKernel);
-  pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
-  wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  selectKernel();
 
   // Time step. Hertz durations depend on the impact speed: without a reference speed, use twice the
   // fastest particle (a head-on impact of the two fastest).
@@ -173,20 +154,181 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
   if (settings_.timeStep > 0.0) {
     timeStep_.dt = settings_.timeStep;
     timeStep_.stepsPerContact = timeStep_.contactDuration / settings_.timeStep;
+    if (timeStep_.stepsPerContact < kMinStepsPerContact && !settings_.allowUnstableDt) {
+      throw ConfigError(fmt::format(
+          "run.dt = {:g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s, {}): the same rule as run.dt_factor >= {:g} "
+          "applies, so use run.dt <= {:.4g} s, or remove run.dt and set run.dt_factor (default 50); "
+          "run.allow_unstable_dt = true runs it anyway",
+          settings_.timeStep, timeStep_.stepsPerContact, timeStep_.contactDuration,
+          timeStep_.describe().substr(timeStep_.describe().find("set by")), kMinStepsPerContact,
+          timeStep_.contactDuration / kMinStepsPerContact));
+    }
   }
   dt_ = timeStep_.dt;
+  velocityPredicted_ = particles_.velocity();
+  if (kernel_.rotation) angularVelocityPredicted_ = particles_.angularVelocity();
 
+  rebuild();
+  rejectCoincidentCentres();
+  computeForces();
+  initialEnergy_ = energies().total();
+}
+
+void DemSimulation::validateSettings() {
+  settings_.stability.validate();
+  if (!settings_.gravity.allFinite()) throw ConfigError("run.gravity must be finite");
+  if (settings_.gravity != Eigen::Vector3d::Zero() && box_.fullyPeriodic()) {
+    throw ConfigError(fmt::format(
+        "run.gravity = [{:g}, {:g}, {:g}] in a fully periodic box: nothing holds the particles, they fall "
+        "forever; put walls across gravity, e.g. box.boundaries = [\"periodic\", \"periodic\", \"wall\"]",
+        settings_.gravity[0], settings_.gravity[1], settings_.gravity[2]));
+  }
+  if (!(settings_.viscousDamping >= 0.0 && std::isfinite(settings_.viscousDamping))) {
+    throw ConfigError(fmt::format("run.viscous_damping must be >= 0, got {}", settings_.viscousDamping));
+  }
+  if (!(settings_.timeStep >= 0.0 && std::isfinite(settings_.timeStep))) {
+    throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", settings_.timeStep));
+  }
+  if (settings_.threads < 1) throw ConfigError(fmt::format("run.threads must be >= 1, got {}", settings_.threads));
+  if (settings_.threads > 1 && !POLYDEM_WITH_OPENMP) {
+    throw ConfigError(fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON (this one is serial); "
+                                  "use run.threads = 1",
+                                  settings_.threads));
+  }
+  verlet_.setBlocks(settings_.threads);
+}
+
+void DemSimulation::selectKernel() {
+  flags_.walls = box_.hasWalls();
+  flags_.gravity = settings_.gravity != Eigen::Vector3d::Zero();
+  flags_.viscous = settings_.viscousDamping > 0.0;
+  kernel_ = contact::selectForceKernel(model_, flags_, settings_.generalKernel);
+  pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
   const auto& p = model_.parameters();
   bool gravityOnPeriodic = false;
   for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
   conservative_ = p.restitution == 1.0 && p.friction == 0.0 && !flags_.viscous && !gravityOnPeriodic;
   predict_ = p.restitution < 1.0 || flags_.viscous || kernel_.rotation;
+}
+
+void DemSimulation::rejectCoincidentCentres() const {
+  // Two equal centres have no contact normal: the force would be 0/0. Report them as what they are.
+  const contact::ContactList& list = verlet_.list();
+  const Eigen::Matrix3Xd& x = particles_.position();
+  for (Index i = 0; i < list.particleCount(); ++i) {
+    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
+      const Index j = list.neighbour[c];
+      if (box_.minimumImage(x.col(j) - x.col(i)).squaredNorm() == 0.0) {
+        throw ConfigError(fmt::format("particles id {} and id {} are coincident (both centred at ({:g}, {:g}, {:g})): "
+                                      "remove the duplicate from the input",
+                                      particles_.id()[static_cast<std::size_t>(i)],
+                                      particles_.id()[static_cast<std::size_t>(j)], x(0, i), x(1, i), x(2, i)));
+      }
+    }
+  }
+}
+
+DemSimulation DemSimulation::restore(const DemState& state, const DemSettings& settings) {
+  return DemSimulation(state, settings, RestoreTag{});
+}
+
+DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings, RestoreTag)
+    : box_(state.box),
+      settings_(settings),
+      model_(settings.contact),
+      verlet_(broadphase::makeBroadPhase(settings.broadPhase), state.skin) {
+  settings_.skin = verlet_.skin();
+  validateSettings();
+  const Index n = static_cast<Index>(state.radius.size());
+  auto sized = [&](const auto& a, Index rows, const char* what) {
+    if (a.size() != static_cast<Eigen::Index>(rows) * n) {
+      throw InputError(fmt::format("checkpoint: {} has {} values, expected {}", what, a.size(), rows * n));
+    }
+  };
+  if (n == 0) throw InputError("checkpoint: no particles");
+  sized(state.position, 3, "position");
+  sized(state.velocity, 3, "velocity");
+  sized(state.force, 3, "force");
+  sized(state.inverseMass, 1, "inverse mass");
+  sized(state.referencePosition, 3, "reference position");
+  sized(state.referenceRadius, 1, "reference radius");
+  if (state.id.size() != static_cast<std::size_t>(n)) throw InputError("checkpoint: id has the wrong length");
+  particles_ = ParticleStore(n, Features{.rotation = state.rotation});
+  particles_.position() = state.position;
+  particles_.velocity() = state.velocity;
+  particles_.force() = state.force;
+  particles_.radius() = state.radius;
+  particles_.inverseMass() = state.inverseMass;
+  particles_.id() = state.id;
+  if (state.rotation) {
+    sized(state.angularVelocity, 3, "angular velocity");
+    sized(state.torque, 3, "torque");
+    sized(state.inverseInertia, 1, "inverse inertia");
+    particles_.angularVelocity() = state.angularVelocity;
+    particles_.torque() = state.torque;
+    particles_.inverseInertia() = state.inverseInertia;
+  }
+  if ((model_.parameters().usesFriction() || settings_.generalKernel) && !state.rotation) {
+    throw InputError("checkpoint: the contact law needs rotation but the saved state has none");
+  }
+  selectKernel();
+  timeStep_ = state.timeStep;
+  dt_ = timeStep_.dt;
+  step_ = state.step;
+  initialEnergy_ = state.initialEnergy;
   velocityPredicted_ = particles_.velocity();
   if (kernel_.rotation) angularVelocityPredicted_ = particles_.angularVelocity();
 
-  rebuild();
-  computeForces();
-  initialEnergy_ = energies().total();
+  // The list of the last build, from its own positions and radii: the same pairs in the same order.
+  verlet_.build(SphereView{state.referencePosition, state.referenceRadius}, box_);
+  verlet_.setBuilds(state.builds);
+  growthSinceBuild_ = state.growthSinceBuild;
+  if (settings_.threads > 1) {
+    crossScratch_.resize(contact::crossScratchSize(verlet_.list().crossCount(), kernel_.rotation));
+    crossTouching_.resize(verlet_.list().crossCount());
+  }
+  if (kernel_.historyWidth > 0) {
+    verlet_.keys(particles_.id(), pairKeys_, wallKeys_);
+    if (pairKeys_ != state.pairKeys || wallKeys_ != state.wallKeys) {
+      throw InputError("checkpoint: the rebuilt neighbour list differs from the saved one (was the checkpoint "
+                       "written by another version of polydem?)");
+    }
+    pairHistory_.assign(state.pairKeys, state.pairValues);
+    wallHistory_.assign(state.wallKeys, state.wallValues);
+  }
+}
+
+DemState DemSimulation::state() const {
+  DemState s;
+  s.box = box_;
+  s.step = step_;
+  s.timeStep = timeStep_;
+  s.skin = verlet_.skin();
+  s.initialEnergy = initialEnergy_;
+  s.growthSinceBuild = growthSinceBuild_;
+  s.builds = verlet_.builds();
+  s.rotation = particles_.features().rotation;
+  s.id = particles_.id();
+  s.position = particles_.position();
+  s.velocity = particles_.velocity();
+  s.force = particles_.force();
+  s.radius = particles_.radius();
+  s.inverseMass = particles_.inverseMass();
+  if (s.rotation) {
+    s.angularVelocity = particles_.angularVelocity();
+    s.torque = particles_.torque();
+    s.inverseInertia = particles_.inverseInertia();
+  }
+  s.referencePosition = verlet_.reference();
+  s.referenceRadius = verlet_.referenceRadius();
+  if (kernel_.historyWidth > 0) {
+    s.pairKeys.assign(pairHistory_.keys().begin(), pairHistory_.keys().end());
+    s.wallKeys.assign(wallHistory_.keys().begin(), wallHistory_.keys().end());
+    s.pairValues.assign(pairHistory_.allValues().begin(), pairHistory_.allValues().end());
+    s.wallValues.assign(wallHistory_.allValues().begin(), wallHistory_.allValues().end());
+  }
+  return s;
 }
 
 contact::ForceContext DemSimulation::context() const {
@@ -233,14 +375,13 @@ void DemSimulation::rebuild() {
     for (int k = 0; k < 3; ++k) {
       double& xk = x(k, i);
       const double L = box_.length(k);
-      if (!std::isfinite(xk)) {
-        fail(fmt::format("particle id {} has a non-finite position", particles_.id()[static_cast<std::size_t>(i)]),
-             dtHint());
-      }
+      if (!std::isfinite(xk)) blowUp(i, "a non-finite position");
       if (box_.periodic(k)) {
         if (xk < 0.0 || xk >= L) {
           xk -= L * std::floor(xk / L);
           if (xk >= L) xk = 0.0;
+          // Only a particle that flew ~1e16 box lengths makes the wrap itself fail.
+          if (!(xk >= 0.0 && xk < L)) blowUp(i, fmt::format("{} = {:g} beyond the box", "xyz"[k], xk));
         }
       } else if (xk < 0.0 || xk > L) {
         checkStability();  // names the particle that left the box and why
@@ -250,7 +391,13 @@ void DemSimulation::rebuild() {
       }
     }
   }
-  verlet_.build(particles_.spheres(), box_);
+  try {
+    verlet_.build(particles_.spheres(), box_);
+  } catch (const ConfigError& e) {
+    if (step_ == 0) throw;  // the input itself
+    // Mid-run, the broad phase only refuses a state the run itself produced.
+    fail(fmt::format("blow-up: the neighbour-list rebuild refused the state ({})", e.what()), dtHint());
+  }
   growthSinceBuild_ = 0.0;
   if (settings_.threads > 1) {
     // Grows only (resize keeps the capacity): no allocation once the list has reached its size.
@@ -264,7 +411,7 @@ void DemSimulation::rebuild() {
   }
 }
 
-void DemSimulation::advance(std::int64_t steps) {
+std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
   const Index n = particles_.count();
   const int threads = settings_.threads;
   const double dt = dt_;
@@ -350,7 +497,9 @@ void DemSimulation::advance(std::int64_t steps) {
       checkStability();
       times_.check += seconds(t4, Clock::now());
     }
+    if (stopOnInterrupt && interruptRequested()) return s + 1;
   }
+  return steps;
 }
 
 void DemSimulation::growRadii(double factor) {
@@ -414,15 +563,56 @@ std::size_t DemSimulation::memoryBytes() const {
 
 std::string DemSimulation::dtHint() const {
   const double f = timeStep_.stepsPerContact;
-  return fmt::format(
-      "dt too large for stiffness {} = {:g}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
-      "run.dt_factor f >= {:g}",
-      model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K", model_.parameters().stiffness, dt_, f,
-      timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
+  const std::string law =
+      fmt::format("{} = {:g}", model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K",
+                  model_.parameters().stiffness);
+  if (settings_.timeStep > 0.0) {
+    // The user fixed dt: run.dt_factor has no effect, so the fix must name run.dt.
+    return fmt::format("run.dt = {:.4g} s is too large for stiffness {}: it is t_c,min / {:.3g} (t_c,min = {:.4g} s); "
+                       "use run.dt <= {:.4g} s (t_c,min / 50), or remove run.dt and let run.dt_factor choose it",
+                       dt_, law, f, timeStep_.contactDuration, timeStep_.contactDuration / 50.0);
+  }
+  return fmt::format("dt too large for stiffness {}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
+                     "run.dt_factor f >= {:g}",
+                     law, dt_, f, timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
+}
+
+void DemSimulation::blowUp(Index slot, const std::string& what) const {
+  // A blow-up is a property of the run, not of the input: name the step, the particle, its speed and
+  // the energy against the start, so nobody goes looking for a bad coordinate in the input file.
+  const Eigen::Matrix3Xd& v = particles_.velocity();
+  Index fastest = 0;
+  double fastestSpeed = -1.0;
+  for (Index i = 0; i < particles_.count(); ++i) {
+    const double speed = v.col(i).norm();
+    if (!(speed <= fastestSpeed)) {  // NaN counts as fastest
+      fastestSpeed = speed;
+      fastest = i;
+    }
+  }
+  double kinetic = 0.0;
+  for (Index i = 0; i < particles_.count(); ++i) kinetic += 0.5 * v.col(i).squaredNorm() / particles_.inverseMass()[i];
+  fail(fmt::format("blow-up: particle id {} has {}; fastest particle id {} at {:.3g} m/s, kinetic energy {:.4g} J "
+                   "(total energy at step 0: {:.4g} J)",
+                   particles_.id()[static_cast<std::size_t>(slot)], what,
+                   particles_.id()[static_cast<std::size_t>(fastest)], fastestSpeed, kinetic, initialEnergy_),
+       dtHint());
 }
 
 void DemSimulation::fail(const std::string& what, const std::string& cause) const {
-  throw SimulationError(fmt::format("step {} (t = {:.6g} s): {}. Likely cause: {}", step_, time(), what, cause));
+  // The energy against step 0 tells a blow-up (energy grown by orders of magnitude) from a local fault.
+  const double energy = energies().total();
+  std::string energyText;
+  if (std::isfinite(energy)) {
+    const bool blowUp = std::abs(energy) > 10.0 * std::abs(initialEnergy_) && initialEnergy_ != 0.0;
+    energyText = fmt::format("; total energy {:.4g} J (step 0: {:.4g} J){}", energy, initialEnergy_,
+                             blowUp ? fmt::format(", {:.3g} times larger: the run blew up", energy / initialEnergy_)
+                                    : std::string());
+  } else {
+    energyText = fmt::format("; total energy not finite (step 0: {:.4g} J): the run blew up", initialEnergy_);
+  }
+  throw SimulationError(
+      fmt::format("step {} (t = {:.6g} s): {}{}. Likely cause: {}", step_, time(), what, energyText, cause));
 }
 
 void DemSimulation::checkStability() const {
@@ -477,8 +667,13 @@ void DemSimulation::checkStability() const {
     speed = std::max(2.0 * maxSpeed, 1e-300);
     const double needed = model_.stiffnessForOverlap(0.05 * rsmall, meff, reff, speed);
     const std::string cause =
-        timeStep_.stepsPerContact < 20.0
-            ? dtHint()
+        timeStep_.stepsPerContact < 20.0 ? dtHint()
+        : settings_.impactOverlap > 0.0
+            ? fmt::format("the impacts are too fast: the initial velocities were scaled so that two smallest "
+                          "particles overlap by velocities.overlap = {:g} of their radius, and larger or faster "
+                          "pairs overlap more; lower velocities.overlap (changing the stiffness only rescales the "
+                          "velocities again)",
+                          settings_.impactOverlap)
             : fmt::format("stiffness {:g} too soft for the impact speeds (fastest particle {:.3g} m/s): stiffness >= "
                           "{:.3g} keeps a head-on impact of this pair below 5% of the smaller radius; or start slower "
                           "(seed protocol: 1% overlap of the smallest particles)",

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -53,6 +54,13 @@ struct DemSettings {
   /// POLYDEM_WITH_OPENMP build and gives bit-identical results (see contact/force_loop.hpp). The
   /// neighbour-list rebuild stays serial.
   int threads = 1;
+  /// An explicit timeStep above t_c,min / 5 is refused (ConfigError naming run.dt) unless this is set
+  /// (run.allow_unstable_dt): the same rule as run.dt_factor >= 5.
+  bool allowUnstableDt = false;
+  /// > 0: the initial velocities were scaled by the impact rule so that two smallest particles overlap by
+  /// this fraction of their radius (velocities.overlap). Error messages then name velocities.overlap as
+  /// the fix for excessive overlaps: a stiffer contact would only rescale the velocities again.
+  double impactOverlap = 0.0;
 };
 
 /// Seconds spent in each phase of the time loop (wall clock).
@@ -71,14 +79,45 @@ struct Energies {
   double total() const { return kinetic + rotational + elastic + potential; }
 };
 
+/// Everything that determines the trajectory from a step on, in slot order (bit-exact): a checkpoint.
+/// Wall-clock phase times are not part of it. See DemSimulation::state() and DemSimulation::restore().
+struct DemState {
+  Box box;
+  std::int64_t step = 0;
+  TimeStepChoice timeStep;        ///< dt and the pair that set it
+  double skin = 0.0;              ///< resolved Verlet skin (m)
+  double initialEnergy = 0.0;     ///< reference of the energy check
+  double growthSinceBuild = 0.0;  ///< radius growth since the last neighbour-list build (m)
+  std::int64_t builds = 0;        ///< neighbour-list builds so far
+  bool rotation = false;          ///< the store has rotation arrays
+  std::vector<Index> id;
+  Eigen::Matrix3Xd position, velocity, force, angularVelocity, torque;  ///< rotation arrays empty without
+  Eigen::VectorXd radius, inverseMass, inverseInertia;
+  Eigen::Matrix3Xd referencePosition;  ///< centres at the last build
+  Eigen::VectorXd referenceRadius;     ///< radii at the last build
+  std::vector<std::uint64_t> pairKeys, wallKeys;  ///< history keys (checked against the rebuilt list)
+  std::vector<double> pairValues, wallValues;     ///< history values, width per key
+};
+
 class DemSimulation {
  public:
   /// Validates everything (ConfigError naming the key), sorts particles spatially (optional), chooses
   /// dt, builds the neighbour list and computes the initial forces. Periodic coordinates are wrapped.
   DemSimulation(ParticleStore particles, const Box& box, const DemSettings& settings);
 
-  /// Advance `steps` steps. Throws SimulationError from the stability check.
-  void advance(std::int64_t steps);
+  /// Continue from `state` (from state()) with `settings` (the same as the run that saved it): no
+  /// spatial sort, no new time step; the neighbour list is rebuilt from the saved build positions and
+  /// radii, so it holds the same pairs in the same order, and the contact histories are put back. The
+  /// resumed trajectory is bit-identical to the uninterrupted one. Throws InputError if the state is
+  /// inconsistent (sizes, history keys that the rebuilt list does not have).
+  static DemSimulation restore(const DemState& state, const DemSettings& settings);
+  /// The complete state at the current step (see DemState). O(N + P).
+  DemState state() const;
+
+  /// Advance `steps` steps. Throws SimulationError from the stability check. With `stopOnInterrupt`,
+  /// polydem::interruptRequested() is polled after each complete step (a safe point: the state is that of
+  /// an uninterrupted run at that step) and the loop stops early. Returns the steps done.
+  std::int64_t advance(std::int64_t steps, bool stopOnInterrupt = false);
 
   /// Run the stability check now. Throws SimulationError.
   void checkStability() const;
@@ -120,6 +159,13 @@ class DemSimulation {
   std::size_t memoryBytes() const;
 
  private:
+  struct RestoreTag {};
+  DemSimulation(const DemState& state, const DemSettings& settings, RestoreTag);
+  void validateSettings();
+  void selectKernel();
+  void rejectCoincidentCentres() const;
+  [[noreturn]] void blowUp(Index slot, const std::string& what) const;
+
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();

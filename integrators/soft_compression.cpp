@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "core/errors.hpp"
+#include "core/interrupt.hpp"
 
 namespace polydem::integrators {
 
@@ -27,60 +28,136 @@ void CompressionSettings::validate() const {
   if (maxSteps < 1) throw ConfigError(fmt::format("compression.max_steps must be >= 1, got {}", maxSteps));
 }
 
-CompressionResult softCompress(ParticleStore& particles, const Box& box, DemSettings settings,
-                               const CompressionSettings& compression,
-                               const std::function<void(const DemSimulation&, bool growing)>& progress) {
-  compression.validate();
+namespace {
+
+constexpr std::int64_t kGrowthChunk = 20;
+constexpr std::int64_t kRelaxChunk = 100;
+
+/// t_c,min of the starting state (the rates are in its units). gamma needs t_c,min, which the
+/// simulation computes: build once to learn it (cheap).
+double startingContactDuration(ParticleStore& particles, const Box& box, DemSettings settings) {
   particles.velocity().setZero();
   if (particles.features().rotation) particles.angularVelocity().setZero();
   settings.gravity.setZero();
-  // gamma needs t_c,min, which the simulation computes: build once to learn it (cheap), then for real.
   settings.viscousDamping = 1.0;
-  const double tc = DemSimulation(particles, box, settings).timeStepChoice().contactDuration;
-  settings.viscousDamping = compression.damping / tc;
-  DemSimulation sim(std::move(particles), box, settings);
+  return DemSimulation(particles, box, settings).timeStepChoice().contactDuration;
+}
 
-  CompressionResult result;
-  constexpr std::int64_t kChunk = 20;
-  const double perChunk = 1.0 + compression.growthRate * kChunk * sim.dt() / tc;
-  // Growth pauses while the overlaps are large (the damping has not caught up): a fixed stiffness gets
-  // relatively softer as radii and masses grow, and jammed regions need time to rearrange.
-  const double pauseAbove = std::max(5.0 * compression.relaxedOverlap, 0.05);
-  std::int64_t steps = 0;
-  while (sim.packingFraction() < compression.targetPacking * (1.0 - 1e-12)) {
-    if (sim.contactStats().maxOverlapRatio < pauseAbove) {
-      const double needed = std::cbrt(compression.targetPacking / sim.packingFraction());
-      sim.growRadii(std::min(perChunk, needed));
+}  // namespace
+
+DemSettings SoftCompression::compressionSettings(DemSettings settings, double viscousDamping) const {
+  settings.gravity.setZero();
+  settings.viscousDamping = viscousDamping;
+  return settings;
+}
+
+SoftCompression::SoftCompression(ParticleStore particles, const Box& box, DemSettings settings,
+                                 const CompressionSettings& compression)
+    : compression_((compression.validate(), compression)),
+      progress_{.contactDuration = startingContactDuration(particles, box, settings)},
+      sim_(std::move(particles), box,
+           compressionSettings(settings, compression.damping / progress_.contactDuration)) {
+  progress_.viscousDamping = sim_.settings().viscousDamping;
+}
+
+SoftCompression::SoftCompression(const DemState& state, DemSettings settings, const CompressionSettings& compression,
+                                 const CompressionProgress& progress)
+    : compression_((compression.validate(), compression)),
+      progress_(progress),
+      sim_(DemSimulation::restore(state, compressionSettings(settings, progress.viscousDamping))) {}
+
+bool SoftCompression::advance() {
+  using Phase = CompressionProgress::Phase;
+  CompressionProgress& p = progress_;
+  if (p.phase == Phase::Growing) {
+    if (sim_.packingFraction() < compression_.targetPacking * (1.0 - 1e-12) && p.steps <= compression_.maxSteps) {
+      // Growth pauses while the overlaps are large (the damping has not caught up): a fixed stiffness gets
+      // relatively softer as radii and masses grow, and jammed regions need time to rearrange.
+      const double pauseAbove = std::max(5.0 * compression_.relaxedOverlap, 0.05);
+      if (sim_.contactStats().maxOverlapRatio < pauseAbove) {
+        const double perChunk =
+            1.0 + compression_.growthRate * static_cast<double>(kGrowthChunk) * sim_.dt() / p.contactDuration;
+        const double needed = std::cbrt(compression_.targetPacking / sim_.packingFraction());
+        sim_.growRadii(std::min(perChunk, needed));
+      }
+      sim_.advance(kGrowthChunk);
+      p.steps += kGrowthChunk;
+      return true;
     }
-    sim.advance(kChunk);
-    steps += kChunk;
-    if (progress && steps % 1000 == 0) progress(sim, true);
-    if (steps > compression.maxSteps) break;
+    p.growthSteps = p.steps;
+    p.phase = Phase::Relaxing;
+    p.overlap = sim_.contactStats().maxOverlapRatio;
+    p.packed = sim_.packingFraction() >= compression_.targetPacking * (1.0 - 1e-12);
   }
-  result.growthSteps = steps;
-  // Relax: damped motion until the overlaps are small (or the step budget is spent).
-  constexpr std::int64_t kRelaxChunk = 100;
-  double overlap = sim.contactStats().maxOverlapRatio;
-  while (overlap > compression.relaxedOverlap && steps < compression.maxSteps) {
-    sim.advance(kRelaxChunk);
-    steps += kRelaxChunk;
-    result.relaxSteps += kRelaxChunk;
-    overlap = sim.contactStats().maxOverlapRatio;
-    if (progress && result.relaxSteps % 1000 == 0) progress(sim, false);
+  if (p.phase == Phase::Relaxing) {
+    // Relax: damped motion until the overlaps are small (or the step budget is spent).
+    if (p.packed && p.overlap > compression_.relaxedOverlap && p.steps < compression_.maxSteps) {
+      sim_.advance(kRelaxChunk);
+      p.steps += kRelaxChunk;
+      p.relaxSteps += kRelaxChunk;
+      p.overlap = sim_.contactStats().maxOverlapRatio;
+      return true;
+    }
+    p.phase = Phase::Done;
   }
-  if (overlap > compression.relaxedOverlap) {
-    throw SimulationError(fmt::format(
-        "soft compression: after {} steps the largest overlap is still {:.3g} of the smaller radius (target {}) at "
-        "packing fraction {:.4f}: the target is probably above jamming for this size distribution; lower "
+  return false;
+}
+
+CompressionResult SoftCompression::result() const {
+  const CompressionProgress& p = progress_;
+  CompressionResult result;
+  result.growthSteps = growing() ? p.steps : p.growthSteps;
+  result.relaxSteps = p.relaxSteps;
+  result.packingFraction = sim_.packingFraction();
+  result.maxOverlapRatio = growing() ? sim_.contactStats().maxOverlapRatio : p.overlap;
+  result.rebuilds = sim_.rebuilds();
+  if (!finished()) {
+    result.reachedTarget = false;
+    result.reason = fmt::format("stopped after {} steps at packing fraction {:.4f}", p.steps, result.packingFraction);
+  } else if (!p.packed) {
+    result.reachedTarget = false;
+    result.reason = fmt::format(
+        "compression.max_steps = {} spent at packing fraction {:.4f} below the target {} (largest overlap {:.3g} of "
+        "the smaller radius): the target is probably above jamming for this size distribution; lower "
+        "compression.packing_fraction or raise compression.max_steps / compression.growth_rate",
+        compression_.maxSteps, result.packingFraction, compression_.targetPacking, p.overlap);
+  } else if (p.overlap > compression_.relaxedOverlap) {
+    result.reachedTarget = false;
+    result.reason = fmt::format(
+        "after {} steps the largest overlap is still {:.3g} of the smaller radius (target {}) at packing fraction "
+        "{:.4f}: the target is probably above jamming for this size distribution; lower "
         "compression.packing_fraction or raise compression.max_overlap / compression.max_steps",
-        steps, overlap, compression.relaxedOverlap, sim.packingFraction()));
+        p.steps, p.overlap, compression_.relaxedOverlap, result.packingFraction);
   }
-  result.packingFraction = sim.packingFraction();
-  result.maxOverlapRatio = overlap;
-  result.rebuilds = sim.rebuilds();
-  particles = sim.particles();
-  particles.velocity().setZero();
-  if (particles.features().rotation) particles.angularVelocity().setZero();
+  return result;
+}
+
+ParticleStore SoftCompression::particles() const {
+  ParticleStore out = sim_.particles();
+  out.velocity().setZero();
+  if (out.features().rotation) out.angularVelocity().setZero();
+  return out;
+}
+
+CompressionResult softCompress(ParticleStore& particles, const Box& box, DemSettings settings,
+                               const CompressionSettings& compression,
+                               const std::function<void(const DemSimulation&, bool growing)>& progress,
+                               bool stopOnInterrupt) {
+  SoftCompression c(std::move(particles), box, settings, compression);
+  std::int64_t reported = 0;
+  while (c.advance()) {
+    if (progress && c.progress().steps / 1000 > reported) {
+      reported = c.progress().steps / 1000;
+      progress(c.simulation(), c.growing());
+    }
+    if (stopOnInterrupt && interruptRequested()) break;
+  }
+  CompressionResult result = c.result();
+  if (!c.finished()) {
+    result.interrupted = true;
+    result.reason = "interrupted: " + result.reason;
+  }
+  particles = c.particles();
   return result;
 }
 

@@ -68,6 +68,7 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
   }
   if (blocks_ > 1) list_.buildBlocks(blocks_);
   reference_ = spheres.centre;  // same size after the first build: no allocation
+  referenceRadius_ = spheres.radius;
 }
 
 void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pairKeys,
@@ -87,7 +88,8 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
 
 std::size_t VerletList::memoryBytes() const {
   return backend_->memoryBytes() + list_.memoryBytes() + pairs_.capacity() * sizeof(broadphase::Pair) +
-         fill_.capacity() * sizeof(Index) + static_cast<std::size_t>(reference_.size()) * sizeof(double);
+         fill_.capacity() * sizeof(Index) +
+         static_cast<std::size_t>(reference_.size() + referenceRadius_.size()) * sizeof(double);
 }
 
 void VerletList::validate(const SphereView& spheres, const Box& box) const {

@@ -39,6 +39,10 @@ class VerletList {
   const contact::ContactList& list() const { return list_; }
   /// Centres at the last build (3 x N).
   const Eigen::Matrix3Xd& reference() const { return reference_; }
+  /// Radii at the last build (N): with reference(), all a resumed run needs to rebuild the same list.
+  const Eigen::VectorXd& referenceRadius() const { return referenceRadius_; }
+  /// Set the build counter (a resumed run continues the count of the run that saved it).
+  void setBuilds(std::int64_t builds) { builds_ = builds; }
   double skin() const { return skin_; }
   std::int64_t builds() const { return builds_; }
   const broadphase::BroadPhase& backend() const { return *backend_; }
@@ -54,6 +58,7 @@ class VerletList {
   int blocks_ = 0;
   contact::ContactList list_;
   Eigen::Matrix3Xd reference_;
+  Eigen::VectorXd referenceRadius_;
   std::vector<broadphase::Pair> pairs_;
   std::vector<Index> fill_;
 };

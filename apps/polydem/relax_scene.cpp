@@ -1,5 +1,6 @@
 #include "apps/polydem/relax_scene.hpp"
 
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -33,11 +34,19 @@ class Section {
 
   bool present() const { return table_ != nullptr; }
   bool has(std::string_view key) const { return table_ && table_->get(key) != nullptr; }
+  bool isString(std::string_view key) const { return has(key) && table_->get(key)->is_string(); }
 
   double number(std::string_view key, double fallback) {
     const toml::node* n = get(key);
     if (!n) return fallback;
-    if (auto v = n->as_floating_point()) return v->get();
+    if (auto v = n->as_floating_point()) {
+      // TOML has nan and inf literals; no key of a scene means anything by them.
+      if (!std::isfinite(v->get())) {
+        throw ConfigError(fmt::format("{} ({}) must be a finite number, got {}", path(key), where(*n),
+                                      std::isnan(v->get()) ? "not-a-number" : "infinity"));
+      }
+      return v->get();
+    }
     if (auto v = n->as_integer()) return static_cast<double>(v->get());
     throw wrongType(key, *n, "a number");
   }
@@ -76,6 +85,7 @@ class Section {
     for (std::size_t k = 0; k < 3; ++k) {
       const toml::node& e = *a->get(k);
       if (auto f = e.as_floating_point()) {
+        if (!std::isfinite(f->get())) throw wrongType(key, *n, "an array of 3 finite numbers");
         out[static_cast<int>(k)] = f->get();
       } else if (auto i = e.as_integer()) {
         out[static_cast<int>(k)] = static_cast<double>(i->get());
@@ -114,6 +124,12 @@ class Section {
     if (!has(key)) throw ConfigError(fmt::format("missing required key {}", path(key)));
   }
   std::string path(std::string_view key) const { return fmt::format("{}.{}", name_, key); }
+  /// A count or seed: an integer >= `lo`.
+  std::int64_t integerAtLeast(std::string_view key, std::int64_t fallback, std::int64_t lo) {
+    const std::int64_t v = integer(key, fallback);
+    if (v < lo) throw ConfigError(fmt::format("{} must be >= {}, got {}", path(key), lo, v));
+    return v;
+  }
 
   /// Unknown keys are errors (typos must not silently fall back to defaults).
   void finish() const {
@@ -227,7 +243,7 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     }
     s.count = static_cast<Index>(count);
     DistributionSpec& d = s.distribution;
-    d.kind = particles.string("distribution", "mono");
+    d.kind = particles.string("distribution", d.kind);
     d.rmin = particles.number("rmin", d.rmin);
     d.omega = particles.number("omega", d.omega);
     d.alpha = particles.number("alpha", d.alpha);
@@ -242,7 +258,7 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     if (!(s.packingFraction > 0.0 && s.packingFraction < 1.0)) {
       throw ConfigError(fmt::format("particles.packing_fraction must be in (0, 1), got {}", s.packingFraction));
     }
-    s.seed = static_cast<std::uint64_t>(particles.integer("seed", 1));
+    s.seed = static_cast<std::uint64_t>(particles.integerAtLeast("seed", 1, 0));
     try {
       makeDistribution(d);
     } catch (const ConfigError& e) {
@@ -256,6 +272,7 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   particles.finish();
 
   Section box = section("box");
+  s.boundariesGiven = box.has("boundaries");
   const std::string boundaries = box.words("boundaries", "periodic");
   s.boundaries = boundariesFrom(boundaries);
   s.aspect = box.vector3("aspect", s.aspect);
@@ -291,7 +308,7 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   if (!(s.impactOverlap > 0.0 && s.impactOverlap < 1.0)) {
     throw ConfigError(fmt::format("velocities.overlap must be in (0, 1), got {}", s.impactOverlap));
   }
-  s.velocitySeed = static_cast<std::uint64_t>(velocities.integer("seed", 1));
+  s.velocitySeed = static_cast<std::uint64_t>(velocities.integerAtLeast("seed", 1, 0));
   velocities.finish();
 
   Section compression = section("compression");
@@ -301,7 +318,7 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     cs.growthRate = compression.number("growth_rate", cs.growthRate);
     cs.damping = compression.number("damping", cs.damping);
     cs.relaxedOverlap = compression.number("max_overlap", cs.relaxedOverlap);
-    cs.maxSteps = compression.integer("max_steps", cs.maxSteps);
+    cs.maxSteps = compression.integerAtLeast("max_steps", cs.maxSteps, 1);
     compression.finish();
     cs.validate();
     s.compression = cs;
@@ -309,20 +326,29 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
 
   Section run = section("run");
   if (!run.present()) throw ConfigError("missing section [run] (at least run.steps)");
-  s.steps = run.integer("steps", 0);
   run.require("steps");
-  if (s.steps < 0) throw ConfigError(fmt::format("run.steps must be >= 0, got {}", s.steps));
+  s.steps = run.integerAtLeast("steps", 0, 0);
   integrators::DemSettings& dem = s.dem;
   dem.stepsPerContact = run.number("dt_factor", dem.stepsPerContact);
   if (!(dem.stepsPerContact >= integrators::kMinStepsPerContact)) {
     throw ConfigError(fmt::format("run.dt_factor (steps per contact) must be >= {:g}, got {}",
                                   integrators::kMinStepsPerContact, dem.stepsPerContact));
   }
-  dem.timeStep = run.number("dt", 0.0);
+  dem.timeStep = run.number("dt", dem.timeStep);
   if (!(dem.timeStep >= 0.0)) throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", dem.timeStep));
-  dem.skin = run.number("skin", -1.0);
-  if (run.has("skin") && !(dem.skin >= 0.0)) throw ConfigError(fmt::format("run.skin must be >= 0, got {}", dem.skin));
-  dem.broadPhase = run.string("broadphase", dem.broadPhase);
+  dem.allowUnstableDt = run.boolean("allow_unstable_dt", dem.allowUnstableDt);
+  if (run.isString("skin")) {
+    if (run.string("skin", "") != "auto") {
+      throw ConfigError(fmt::format("run.skin = \"{}\": give a number (m) or \"auto\"", run.string("skin", "")));
+    }
+    dem.skin = -1.0;
+  } else {
+    dem.skin = run.number("skin", -1.0);
+    if (run.has("skin") && !(dem.skin >= 0.0)) {
+      throw ConfigError(fmt::format("run.skin must be >= 0 (or \"auto\" = 0.2 r_min), got {}", dem.skin));
+    }
+  }
+  dem.broadPhase = run.string("broadphase", kDefaultBroadPhase);
   dem.gravity = run.vector3("gravity", dem.gravity);
   dem.viscousDamping = run.number("viscous_damping", dem.viscousDamping);
   dem.stability.checkInterval = run.integer("check_interval", dem.stability.checkInterval);
@@ -335,6 +361,9 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   if (threads < 1 || threads > 1024) throw ConfigError(fmt::format("run.threads must be in [1, 1024], got {}", threads));
   dem.threads = static_cast<int>(threads);
   s.progressInterval = run.number("progress_interval", s.progressInterval);
+  if (s.progressInterval < 0.0) {
+    throw ConfigError(fmt::format("run.progress_interval must be >= 0 (0 = none), got {}", s.progressInterval));
+  }
   run.finish();
   dem.stability.validate();
   if (!(dem.viscousDamping >= 0.0)) {
@@ -343,13 +372,21 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
 
   Section output = section("output");
   s.snapshot = output.string("snapshot", "");
-  s.snapshotInterval = output.integer("snapshot_interval", s.snapshot.empty() ? 0 : 1000);
+  s.snapshotInterval = output.integerAtLeast("snapshot_interval", s.snapshotInterval, 0);
   s.timeseries = output.string("timeseries", "");
-  s.timeseriesInterval = output.integer("timeseries_interval", s.timeseriesInterval);
+  s.timeseriesInterval = output.integerAtLeast("timeseries_interval", s.timeseriesInterval, 1);
   s.finalState = output.string("final", "");
+  s.checkpoint = output.string("checkpoint", "");
+  s.checkpointInterval = output.integerAtLeast("checkpoint_interval", s.checkpointInterval, 0);
+  s.checkpointSeconds = output.number("checkpoint_seconds", s.checkpointSeconds);
   output.finish();
-  if (s.snapshotInterval < 0) throw ConfigError("output.snapshot_interval must be >= 0");
-  if (s.timeseriesInterval < 1) throw ConfigError("output.timeseries_interval must be >= 1");
+  if (s.checkpointSeconds < 0.0) {
+    throw ConfigError(fmt::format("output.checkpoint_seconds must be >= 0 (0 = none), got {}", s.checkpointSeconds));
+  }
+  if (!s.checkpoint.empty() && !(s.checkpoint.ends_with(".h5") || s.checkpoint.ends_with(".hdf5"))) {
+    throw ConfigError(
+        fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, name it *.h5", s.checkpoint));
+  }
   if (!s.snapshot.empty() && s.snapshotInterval > 0 && s.snapshot.find("{step}") == std::string::npos) {
     throw ConfigError(fmt::format("output.snapshot = \"{}\" needs a {{step}} placeholder when "
                                   "output.snapshot_interval > 0",
@@ -359,6 +396,94 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
 }
 
 }  // namespace
+
+std::string defaultSceneToml() {
+  // Every value below comes from the structs and constants the reader falls back on, so this text
+  // cannot drift from the code (tests/apps/relax_scene_test.cpp also parses it back).
+  const RelaxScene s;
+  const DistributionSpec d;
+  const contact::ContactParameters c;
+  const integrators::DemSettings dem;
+  const integrators::CompressionSettings cs;
+  auto num = [](double v) {
+    std::string t = fmt::format("{}", v);  // shortest text that reads back to the same double
+    if (t.find_first_of(".en") == std::string::npos) t += ".0";  // a TOML float, not an integer
+    return t;
+  };
+  auto boolean = [](bool b) { return b ? "true" : "false"; };
+  std::string t;
+  t += "# polydem relax --print-defaults: every scene key with its default. Keys marked \"required\" have no\n";
+  t += "# default (the value shown is an example); particles.file and particles.count exclude each other.\n\n";
+  t += "[particles]\n";
+  t += "# file = \"packing.txt\"  # required unless count is given: a particle file (text or .h5)\n";
+  t += "count = 1000  # required unless file is given: generate this many spheres\n";
+  t +=
+      fmt::format("distribution = \"{}\"  # mono, bi, uniform-radius, uniform-volume, power-law, log-normal\n", d.kind);
+  t += fmt::format("rmin = {}  # m\n", num(d.rmin));
+  t += fmt::format("omega = {}  # rmax / rmin\n", num(d.omega));
+  t += fmt::format("alpha = {}  # power-law exponent\n", num(d.alpha));
+  t += fmt::format("sigma = {}  # log-normal width\n", num(d.sigma));
+  t += fmt::format("median = {}  # log-normal a0\n", num(d.median));
+  t += fmt::format("large_fraction = {}  # bi\n", num(d.largeFraction));
+  t += fmt::format("fraction_kind = \"{}\"  # volume or number\n",
+                   d.fractionKind == FractionKind::Number ? "number" : "volume");
+  t += fmt::format("sampling = \"{}\"  # systematic or random\n", s.sampling);
+  t += fmt::format("packing_fraction = {}\n", num(s.packingFraction));
+  t += fmt::format("seed = {}\n", s.seed);
+  t += fmt::format("density = {}  # kg/m^3\n\n", num(s.density));
+  t += "[box]\n";
+  t += "boundaries = \"periodic\"  # periodic, walls, or per axis [\"periodic\", \"periodic\", \"wall\"]\n";
+  t += fmt::format("aspect = [{}, {}, {}]\n\n", num(s.aspect[0]), num(s.aspect[1]), num(s.aspect[2]));
+  t += "[contact]\n";
+  t += fmt::format("law = \"{}\"  # linear or hertz\n", c.normal == contact::NormalModel::Hertz ? "hertz" : "linear");
+  t += "stiffness = 1000.0  # required: N/m (linear), N/m^2 (radius-scaled), Pa (hertz: 4/3 E*)\n";
+  t += fmt::format("stiffness_scaling = \"{}\"  # constant or radius\n",
+                   c.scaling == contact::StiffnessScaling::Radius ? "radius" : "constant");
+  t += fmt::format("restitution = {}\n", num(c.restitution));
+  t += fmt::format("friction = {}\n", num(c.friction));
+  t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
+  t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
+  t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
+                   num(c.referenceVelocity));
+  t += "[velocities]\n";
+  t += fmt::format("initial = \"{}\"  # impact, file, zero (\"file\" when particles.file is given)\n",
+                   s.initialVelocities);
+  t += fmt::format("overlap = {}\n", num(s.impactOverlap));
+  t += fmt::format("seed = {}\n\n", s.velocitySeed);
+  t += "# [compression]  # optional; absent = no compression\n";
+  t += "# packing_fraction = 0.64  # required in [compression]\n";
+  t += fmt::format("# growth_rate = {}\n", num(cs.growthRate));
+  t += fmt::format("# damping = {}\n", num(cs.damping));
+  t += fmt::format("# max_overlap = {}\n", num(cs.relaxedOverlap));
+  t += fmt::format("# max_steps = {}\n\n", cs.maxSteps);
+  t += "[run]\n";
+  t += "steps = 1000  # required\n";
+  t += fmt::format("dt_factor = {}  # steps per shortest contact, >= {:g}\n", num(dem.stepsPerContact),
+                   integrators::kMinStepsPerContact);
+  t += fmt::format("dt = {}  # s; > 0 overrides dt_factor\n", num(dem.timeStep));
+  t += fmt::format("allow_unstable_dt = {}  # run a dt above t_c,min / 5 anyway\n", boolean(dem.allowUnstableDt));
+  t += "skin = \"auto\"  # m, or auto = 0.2 r_min\n";
+  t += fmt::format("broadphase = \"{}\"\n", kDefaultBroadPhase);
+  t += fmt::format("gravity = [{}, {}, {}]  # m/s^2\n", num(dem.gravity[0]), num(dem.gravity[1]), num(dem.gravity[2]));
+  t += fmt::format("viscous_damping = {}  # 1/s\n", num(dem.viscousDamping));
+  t += fmt::format("check_interval = {}  # 0 = only at the end\n", dem.stability.checkInterval);
+  t += fmt::format("max_overlap_fraction = {}\n", num(dem.stability.maxOverlapFraction));
+  t += fmt::format("energy_tolerance = {}\n", num(dem.stability.energyTolerance));
+  t += fmt::format("kernel = \"{}\"  # specialised or general\n", dem.generalKernel ? "general" : "specialised");
+  t += fmt::format("spatial_sort = {}\n", boolean(dem.spatialSort));
+  t += fmt::format("threads = {}\n", dem.threads);
+  t += fmt::format("progress_interval = {}  # s; 0 = none\n\n", num(s.progressInterval));
+  t += "[output]\n";
+  t += "snapshot = \"\"  # e.g. \"relax_{step}.h5\"; empty = none\n";
+  t += fmt::format("snapshot_interval = {}  # steps; 0 = only at the end\n", s.snapshotInterval);
+  t += "timeseries = \"\"  # CSV; empty = none\n";
+  t += fmt::format("timeseries_interval = {}\n", s.timeseriesInterval);
+  t += "final = \"\"  # particle file; empty = none\n";
+  t += "checkpoint = \"\"  # HDF5 file for relax --resume; empty = none\n";
+  t += fmt::format("checkpoint_interval = {}  # steps; 0 = none by steps\n", s.checkpointInterval);
+  t += fmt::format("checkpoint_seconds = {}  # wall-clock s; 0 = none by time\n", num(s.checkpointSeconds));
+  return t;
+}
 
 std::filesystem::path RelaxScene::resolve(const std::string& path) const {
   const std::filesystem::path p(path);
