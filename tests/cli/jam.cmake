@@ -23,14 +23,12 @@ polydem_cli_test(NAME jam_one_sphere_walls_file COMMAND jam -i jam_one_walls.txt
 polydem_cli_test(NAME jam_one_sphere_walls COMMAND jam -n 1 --boundary walls EXIT 2
                  PASS "--count 1: a compression needs at least 2 spheres" LABELS jam)
 polydem_cli_test(NAME jam_two_spheres_periodic COMMAND jam -n 2 EXIT 2 PASS "does not fit 4 times" LABELS jam)
-polydem_cli_test(NAME jam_two_spheres_walls COMMAND jam -n 2 --boundary walls ${_fast} --target-pressure 1e6
+polydem_cli_test(NAME jam_two_spheres_walls COMMAND jam -n 2 --phi0 0.05 --boundary walls ${_fast} --target-pressure 1e6
                  EXIT 0 PASS "target reached +yes" LABELS jam)
 
 # --- unreachable targets: refused before the run -----------------------------------------------------
 polydem_cli_test(NAME jam_pressure_beyond_precision COMMAND jam -n 200 --target-pressure 1e15 EXIT 2
                  PASS "target pressure 1e\\+15 is beyond what double precision resolves" FAIL "coll/particle"
-                 LABELS jam)
-polydem_cli_test(NAME jam_pressure_nan COMMAND jam -n 50 --target-pressure nan EXIT 105 PASS "target-pressure"
                  LABELS jam)
 polydem_cli_test(NAME jam_pressure_ideal_gas COMMAND jam -n 50 --target-pressure 2 EXIT 2 PASS "must be finite and > 3"
                  LABELS jam)
@@ -43,19 +41,21 @@ polydem_cli_test(NAME jam_stage_pressure COMMAND jam -n 50 --schedule 1e-3:0.5,1
 polydem_cli_test(NAME jam_block_tiny COMMAND jam -n 50 --block 1e-6 EXIT 2 PASS "--block 1e-06: must be 0"
                  LABELS jam)
 polydem_cli_test(NAME jam_phi0_one COMMAND jam -n 50 --phi0 1 EXIT 105 PASS "phi0" LABELS jam)
-polydem_cli_test(NAME jam_phi0_nan COMMAND jam -n 50 --phi0 nan EXIT 105 PASS "phi0" LABELS jam)
 polydem_cli_test(NAME jam_count_negative COMMAND jam -n -5 EXIT 105 PASS "count" LABELS jam)
-polydem_cli_test(NAME jam_budget_nan COMMAND jam -n 50 --max-collisions nan EXIT 105 PASS "max-collisions" LABELS jam)
 polydem_cli_test(NAME jam_run_collisions_negative COMMAND jam -n 50 --run-collisions -1 EXIT 105 PASS "run-collisions"
                  LABELS jam)
-polydem_cli_test(NAME jam_contact_gap_nan COMMAND jam -n 50 --contact-gap nan EXIT 105 PASS "contact-gap" LABELS jam)
+# NaN for every numeric option (a script: the validators echo the offending text, which cli_check's
+# no-"nan" rule would reject).
+add_test(NAME cli_jam_nan_options
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_nan.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
+set_tests_properties(cli_jam_nan_options PROPERTIES TIMEOUT 60 LABELS "cli;jam")
 polydem_cli_test(NAME jam_target_phi_above_one COMMAND jam -n 50 --target-phi 1.5 EXIT 105 PASS "target-phi"
                  LABELS jam)
 
 # --- detected during the run: exit 4, output written and marked --------------------------------------
 polydem_cli_test(NAME jam_budget_exhausted
                  COMMAND jam -n 100 --block 1000 --max-collisions 20 -o jam_budget.h5
-                 EXIT 4 PASS "collisions +2000 \\(20 per particle\\).*target not reached: collision budget" LABELS jam)
+                 EXIT 4 PASS "collisions +2000 \\(20 per particle\\)" LABELS jam)
 polydem_cli_test(NAME jam_target_phi_beyond_jamming
                  COMMAND jam -n 100 ${_fast} --target-phi 0.72 --target-pressure 1e5 -o jam_beyond.txt
                  EXIT 4 PASS "target not reached: jammed before the target packing fraction" LABELS jam)
@@ -82,7 +82,7 @@ polydem_cli_test(NAME jam_boundary_conflict COMMAND jam -i jam_lattice_periodic.
                  PASS "--boundary walls conflicts with the boundaries of jam_lattice_periodic.txt" LABELS jam)
 polydem_cli_test(NAME jam_boundary_takes_effect
                  COMMAND jam -i jam_lattice_open.txt --boundary walls ${_fast} --target-pressure 1e4
-                 EXIT 0 PASS "box walls" LABELS jam)
+                 EXIT 0 PASS "box walled 5 x 5 x 5" LABELS jam)
 polydem_cli_test(NAME jam_boundary_agrees
                  COMMAND jam -i jam_lattice_periodic.txt --boundary periodic --block 10 --max-collisions 30
                  EXIT 4 PASS "box periodic" LABELS jam)
