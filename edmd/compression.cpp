@@ -99,7 +99,7 @@ void validateCompression(const HardSphereSystem& system, const CompressionOption
         fmt::format("target pressure must be finite and > 3 (free-volume regime), got {}", options.targetPressure));
   }
   const double limit = maxResolvablePressure(system);
-  if (options.targetPressure > limit) {
+  if (options.checkPrecision && options.targetPressure > limit) {
     throw ConfigError(fmt::format(
         "target pressure {:g} is beyond what double precision resolves for this system: near jamming the "
         "gaps of the smallest spheres are 2 r_min / p, and at p > {:.2g} they are fewer than {:g} units in the "
@@ -153,6 +153,7 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
   const auto start = std::chrono::steady_clock::now();
   if (!cs.begun) {
     cs.initial = system.counts();
+    cs.pressureLimit = maxResolvablePressure(system);
     system.setThermalSpeed(options.thermalSpeed);
     cs.begun = true;
   }
@@ -219,6 +220,20 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
     if (block.events() == 0) {
       result.stopReason = "no events (every particle at rest)";
       break;
+    }
+    if (std::isfinite(progress.pressure)) cs.windowMax = std::max(cs.windowMax, progress.pressure);
+    if (++cs.windowBlocks >= kPlateauBlocks &&
+        static_cast<double>(all.collisions - cs.windowStart) >= kPlateauGrowth / rate * static_cast<double>(n)) {
+      const bool stuck = cs.previousWindowMax > 0.0 && cs.windowMax >= kPlateauBand * cs.pressureLimit &&
+                         cs.windowMax < kPlateauRise * cs.previousWindowMax;
+      cs.previousWindowMax = cs.windowMax;
+      cs.windowMax = 0.0;
+      cs.windowBlocks = 0;
+      cs.windowStart = all.collisions;
+      if (stuck) {
+        result.stopReason = "pressure plateau at round-off";
+        break;
+      }
     }
     while (static_cast<std::size_t>(cs.stage) + 1 < options.schedule.size() &&
            progress.pressure >= options.schedule[static_cast<std::size_t>(cs.stage)].untilPressure) {

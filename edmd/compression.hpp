@@ -45,6 +45,8 @@ struct CompressionOptions {
   /// clamp(0.01 / Gamma, 10, 1000), which keeps the heating of a block near 2% (digest §2.4).
   double blockCollisionsPerParticle = 0.0;
   double thermalSpeed = 1.0;
+  /// false: skip the precision limit of the target pressure (tests of the plateau detection only).
+  bool checkPrecision = true;
 };
 
 /// State after one block.
@@ -68,7 +70,8 @@ struct Progress {
 struct CompressionResult {
   Progress last;
   /// "pressure", "packing fraction" (the target was reached); "collision budget", "jammed before the target
-  /// packing fraction", "interrupted", "no events (every particle at rest)" (it was not).
+  /// packing fraction", "pressure plateau at round-off", "interrupted", "no events (every particle at rest)"
+  /// (it was not).
   std::string stopReason;
   bool targetReached = false;
   EventCounts counts;  ///< events of the whole compression (earlier sessions of a resumed run included)
@@ -82,7 +85,24 @@ struct CompressionState {
   std::int64_t stage = 0;  ///< index into the schedule
   std::int64_t blocks = 0;
   EventCounts initial;  ///< the system's counts when the compression began
+  /// Plateau detection (pressures stuck at round-off): maxResolvablePressure() at the start, the largest
+  /// block pressure of the current and of the previous window of kPlateauBlocks blocks.
+  double pressureLimit = 0.0;
+  double windowMax = 0.0, previousWindowMax = 0.0;
+  std::int64_t windowBlocks = 0;
+  std::int64_t windowStart = 0;  ///< collisions (since `initial`) when the current window began
 };
+
+/// The plateau test: once the block pressure is within kPlateauBand of maxResolvablePressure(), a window
+/// (at least kPlateauBlocks blocks and kPlateauGrowth / Gamma collisions per particle) whose largest
+/// pressure is not kPlateauRise x that of the window before ends the run ("pressure plateau at
+/// round-off"). Near jamming ln p rises by ~2 Gamma per collision per particle (docs/edmd.md runs), so a
+/// compressing packing gains ~e^4 per window, whatever the block size; at the plateau the window maxima
+/// agree within noise (docs/edmd.md "Termination").
+inline constexpr std::int64_t kPlateauBlocks = 100;
+inline constexpr double kPlateauBand = 1.0 / 30.0;
+inline constexpr double kPlateauRise = 1.5;
+inline constexpr double kPlateauGrowth = 2.0;
 
 /// Called at every block boundary at which the compression goes on (the system synchronised, growth
 /// about to be set for the next block): the place to take a checkpoint. Return true to stop there

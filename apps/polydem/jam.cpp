@@ -409,6 +409,15 @@ Runner addJam(CLI::App& app) {
       cstate.stage = saved.integerScalar("stage");
       cstate.blocks = saved.integerScalar("blocks");
       cstate.initial = countsFrom(saved, "initial_counts");
+      const std::vector<double>& plateau = saved.reals("plateau");
+      if (plateau.size() != 3) throw InputError(fmt::format("{}: checkpoint entry plateau needs 3 values", opt->resume));
+      cstate.pressureLimit = plateau[0];
+      cstate.windowMax = plateau[1];
+      cstate.previousWindowMax = plateau[2];
+      const std::vector<std::int64_t>& window = saved.integers("plateau_blocks");
+      if (window.size() != 2) throw InputError(fmt::format("{}: checkpoint entry plateau_blocks needs 2 values", opt->resume));
+      cstate.windowBlocks = window[0];
+      cstate.windowStart = window[1];
       eosOffset = saved.integerScalar("eos_offset");
     } else if (!opt->input.empty()) {
       // --boundary with --input: it fills in what a text file leaves open and must agree with what a file
@@ -535,6 +544,8 @@ Runner addJam(CLI::App& app) {
       c.putInteger("stage", cs.stage);
       c.putInteger("blocks", cs.blocks);
       c.integer["initial_counts"] = countsVector(cs.initial);
+      c.real["plateau"] = {cs.pressureLimit, cs.windowMax, cs.previousWindowMax};
+      c.integer["plateau_blocks"] = {cs.windowBlocks, cs.windowStart};
       std::int64_t offset = 0;
       if (eosCsv.is_open()) {
         eosCsv.flush();

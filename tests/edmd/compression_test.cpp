@@ -331,6 +331,28 @@ TEST(Compression, TargetPackingFractionBeyondJammingStopsJammed) {
   EXPECT_LT(system.packingFraction(), 0.72);
 }
 
+// A target beyond round-off (the precision check switched off): the pressure plateaus and the run ends
+// there, marked not reached, instead of spinning until the collision budget (the pre-issue behaviour:
+// 40 spheres sat at p ~ 3e14 for 870,000 collisions per particle).
+TEST(Compression, PressurePlateauAtRoundOffEndsTheRun) {
+  PackingRequest request;
+  request.radii = std::vector<double>(40, 1.0);
+  request.packingFraction = 0.3;
+  request.seed = 3;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 3));
+  CompressionOptions options;
+  options.schedule = parseSchedule("1e-2:1e2,1e-3:1e4,1e-3");
+  options.targetPressure = 1e17;
+  EXPECT_THROW(validateCompression(system, options), ConfigError);
+  options.checkPrecision = false;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "pressure plateau at round-off");
+  EXPECT_FALSE(r.targetReached);
+  EXPECT_GT(r.last.pressure, 1e13);
+  EXPECT_LT(r.last.collisionsPerParticle, 1e5);
+}
+
 TEST(Compression, RefusesUnreachableTargets) {
   PackingRequest request;
   request.radii = std::vector<double>(200, 1.0);
