@@ -16,10 +16,10 @@ set(_fast --schedule 1e-2:1e2,1e-3)
 
 # --- N = 0, 1, 2 -------------------------------------------------------------------------------------
 polydem_cli_test(NAME jam_empty_file COMMAND jam -i jam_empty.txt EXIT 2 PASS "jam_empty.txt" LABELS jam)
-polydem_cli_test(NAME jam_zero_spheres COMMAND jam -i jam_zero.txt EXIT 2 PASS "0 spheres; a compression needs at least 2"
+polydem_cli_test(NAME jam_zero_spheres COMMAND jam -i jam_zero.txt EXIT 2 PASS "0 spheres. a compression needs at least 2"
                  LABELS jam)
 polydem_cli_test(NAME jam_one_sphere_walls_file COMMAND jam -i jam_one_walls.txt EXIT 2
-                 PASS "1 sphere; a compression needs at least 2" LABELS jam)
+                 PASS "1 sphere. a compression needs at least 2" LABELS jam)
 polydem_cli_test(NAME jam_one_sphere_walls COMMAND jam -n 1 --boundary walls EXIT 2
                  PASS "--count 1: a compression needs at least 2 spheres" LABELS jam)
 polydem_cli_test(NAME jam_two_spheres_periodic COMMAND jam -n 2 EXIT 2 PASS "does not fit 4 times" LABELS jam)

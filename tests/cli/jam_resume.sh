@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # jam_resume.sh POLYDEM WORKDIR: jam to a pressure uninterrupted, and the same run stopped twice
-# (--stop-after-blocks: checkpoint, output, exit 130) and resumed from its checkpoint; the final particle
+# (--stop-after-blocks: checkpoint, output, exit 130) and resumed from its checkpoint, and the same run
+# checkpointing at every block; the final particle
 # files (text, %.17g) must be byte-identical, and so must the printed final results (wall times aside),
 # the EOS rows (wall seconds aside) and, if the HDF5 writer is deterministic, the .h5 files.
 set -u
@@ -19,6 +20,9 @@ grep -q "interrupted (--stop-after-blocks 15) at block 15" b1.log || fail "no in
 [ "$code" = 130 ] || { cat b2.log; fail "second stop exit $code, expected 130"; }
 "$polydem" jam --resume b.ckpt.h5 > b3.log 2>&1 || { cat b3.log; fail "resume exit $?"; }
 cmp a.txt b.txt || fail "final text files differ"
+# Checkpoints at every block boundary (wall-clock driven) leave the trajectory alone.
+"$polydem" "${run[@]}" -o d.txt --checkpoint d.ckpt.h5 --checkpoint-interval 1e-6 > d.log 2>&1 || fail "run d"
+cmp a.txt d.txt || fail "checkpointing every block changed the result"
 # The printed final results: from "stopped on" to the end, without wall times and the file names.
 results() { sed -n '/^stopped on/,$p' "$1" | grep -v '^wall time' | grep -v '^wrote' | sed "s/[ab]\.txt/FILE/g"; }
 diff <(results a.log) <(results b3.log) || fail "printed final results differ"
