@@ -328,9 +328,6 @@ Runner addJam(CLI::App& app) {
                                       "(smaller blocks spend the run synchronising)",
                                       opt->block));
       }
-      if (!opt->checkpoint.empty() && cmd->count("--checkpoint-interval") == 0) {
-        // the default interval applies
-      }
     }
     if (cmd->count("--checkpoint-interval") && opt->checkpoint.empty()) {
       throw ConfigError("--checkpoint-interval needs --checkpoint FILE");
