@@ -697,8 +697,11 @@ Runner addJam(CLI::App& app) {
                  stoppedForTest ? fmt::format("--stop-after-blocks {}", opt->stopAfterBlocks)
                                 : fmt::format("signal {}", sig),
                  result.last.blocks,
-                 opt->checkpoint.empty() ? std::string("; no --checkpoint, so the run cannot be resumed")
-                                         : fmt::format("; continue with `polydem jam --resume {}`", opt->checkpoint));
+                 opt->checkpoint.empty() || !std::filesystem::exists(opt->checkpoint)
+                     ? std::string("; no checkpoint was written, so the run cannot be resumed")
+                     : fmt::format("; continue with `polydem jam --resume {}`{}", opt->checkpoint,
+                                   stopReason == "interrupted" ? ""
+                                                               : " (it repeats the run from that checkpoint)"));
       return kExitInterrupted;
     }
     if (!targetReached) {

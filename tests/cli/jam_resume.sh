@@ -6,7 +6,7 @@
 # the EOS rows (wall seconds aside) and, if the HDF5 writer is deterministic, the .h5 files.
 set -u
 polydem="$1"; work="$2/jam_resume"; rm -rf "$work"; mkdir -p "$work"; cd "$work" || exit 1
-run=(jam -n 300 --dist bi --omega 1.4 --schedule 1e-2:1e2,1e-3:1e4,5e-4 --target-pressure 1e9 --seed 5
+run=(jam -n 200 --dist bi --omega 1.4 --schedule 1e-2:1e2,1e-3:1e4,5e-4 --target-pressure 1e8 --seed 5
      --progress 0)
 fail() { echo "FAIL: $*"; exit 1; }
 "$polydem" "${run[@]}" -o a.txt --eos-csv a.csv > a.log 2>&1 || { cat a.log; fail "uninterrupted run exit $?"; }
