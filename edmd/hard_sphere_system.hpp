@@ -173,8 +173,7 @@ struct SystemState {
   double growth = 0.0, elapsed = 0.0, skinFloor = 1.0, sizeRatio = 1.0, kinetic = 0.0, maxOverlap = 0.0;
   PressureWindow window;
   EventCounts total;
-  std::int64_t collisionsAtSort = 0, collisionsAtRebuild = 0, exitsAtRebuild = 0, pairsAtRebuild = 0,
-               pairWork = 0;
+  std::int64_t collisionsAtSort = 0, collisionsAtRebuild = 0, exitsAtRebuild = 0, pairsAtRebuild = 0, pairWork = 0;
   CollisionRecord lastCollision;
 };
 

@@ -89,7 +89,8 @@ std::vector<std::int64_t> countsVector(const edmd::EventCounts& c) {
 
 edmd::EventCounts countsFrom(const io::Checkpoint& c, const std::string& name) {
   const std::vector<std::int64_t>& v = c.integers(name);
-  if (v.size() != 7) throw InputError(fmt::format("{}: checkpoint entry {}: expected 7 counts", c.source.string(), name));
+  if (v.size() != 7)
+    throw InputError(fmt::format("{}: checkpoint entry {}: expected 7 counts", c.source.string(), name));
   return {v[0], v[1], v[2], v[3], v[4], v[5], v[6]};
 }
 
@@ -146,11 +147,10 @@ void putEngine(io::Checkpoint& c, const edmd::SystemState& s) {
   c.integer["engine.hood_size"] = s.hoodSize;
   c.integer["engine.hood_capacity"] = s.hoodCapacity;
   c.integer["engine.neighbours"] = s.neighbours;
-  c.real["engine.scalars"] = {s.growth,         s.elapsed,        s.skinFloor,
-                              s.sizeRatio,      s.kinetic,        s.maxOverlap,
-                              s.window.virial,  s.window.kineticIntegral, s.window.duration,
-                              s.lastCollision.time};
-  c.integer["engine.counters"] = {s.collisionsAtSort, s.collisionsAtRebuild, s.exitsAtRebuild, s.pairsAtRebuild,
+  c.real["engine.scalars"] = {s.growth,          s.elapsed,           s.skinFloor,     s.sizeRatio,
+                              s.kinetic,         s.maxOverlap,        s.window.virial, s.window.kineticIntegral,
+                              s.window.duration, s.lastCollision.time};
+  c.integer["engine.counters"] = {s.collisionsAtSort, s.collisionsAtRebuild, s.exitsAtRebuild,  s.pairsAtRebuild,
                                   s.pairWork,         s.window.collisions,   s.lastCollision.i, s.lastCollision.j};
   c.integer["engine.total"] = countsVector(s.total);
 }
@@ -172,8 +172,8 @@ edmd::SystemState getEngine(const io::Checkpoint& c) {
   const std::vector<double>& r = c.reals("engine.scalars");
   const std::vector<std::int64_t>& k = c.integers("engine.counters");
   if (r.size() != 10 || k.size() != 8) {
-    throw InputError(fmt::format("{}: checkpoint entries engine.scalars/engine.counters have the wrong length",
-                                 c.source.string()));
+    throw InputError(
+        fmt::format("{}: checkpoint entries engine.scalars/engine.counters have the wrong length", c.source.string()));
   }
   s.growth = r[0];
   s.elapsed = r[1];
@@ -324,9 +324,10 @@ Runner addJam(CLI::App& app) {
         throw ConfigError("--equivalent applies to the random start (--dist); it cannot be combined with --input");
       }
       if (opt->block != 0.0 && opt->block < 1.0) {
-        throw ConfigError(fmt::format("--block {}: must be 0 (automatic) or at least 1 collision per particle "
-                                      "(smaller blocks spend the run synchronising)",
-                                      opt->block));
+        throw ConfigError(
+            fmt::format("--block {}: must be 0 (automatic) or at least 1 collision per particle "
+                        "(smaller blocks spend the run synchronising)",
+                        opt->block));
       }
     }
     if (cmd->count("--checkpoint-interval") && opt->checkpoint.empty()) {
@@ -370,7 +371,8 @@ Runner addJam(CLI::App& app) {
         throw InputError(fmt::format("{}: checkpoint entries box_lengths/box_boundaries need 3 values", opt->resume));
       }
       std::array<Boundary, 3> b{};
-      for (int k = 0; k < 3; ++k) b[static_cast<std::size_t>(k)] = bounds[static_cast<std::size_t>(k)] ? Boundary::Wall : Boundary::Periodic;
+      for (int k = 0; k < 3; ++k)
+        b[static_cast<std::size_t>(k)] = bounds[static_cast<std::size_t>(k)] ? Boundary::Wall : Boundary::Periodic;
       start.box = Box(Eigen::Vector3d(lengths[0], lengths[1], lengths[2]), b);
       const std::vector<std::int64_t>& ids = saved.integers("ids");
       start.id.assign(ids.begin(), ids.end());
@@ -407,12 +409,14 @@ Runner addJam(CLI::App& app) {
       cstate.blocks = saved.integerScalar("blocks");
       cstate.initial = countsFrom(saved, "initial_counts");
       const std::vector<double>& plateau = saved.reals("plateau");
-      if (plateau.size() != 3) throw InputError(fmt::format("{}: checkpoint entry plateau needs 3 values", opt->resume));
+      if (plateau.size() != 3)
+        throw InputError(fmt::format("{}: checkpoint entry plateau needs 3 values", opt->resume));
       cstate.pressureLimit = plateau[0];
       cstate.windowMax = plateau[1];
       cstate.previousWindowMax = plateau[2];
       const std::vector<std::int64_t>& window = saved.integers("plateau_blocks");
-      if (window.size() != 2) throw InputError(fmt::format("{}: checkpoint entry plateau_blocks needs 2 values", opt->resume));
+      if (window.size() != 2)
+        throw InputError(fmt::format("{}: checkpoint entry plateau_blocks needs 2 values", opt->resume));
       cstate.windowBlocks = window[0];
       cstate.windowStart = window[1];
       eosOffset = saved.integerScalar("eos_offset");
@@ -447,9 +451,10 @@ Runner addJam(CLI::App& app) {
       }
     } else {
       if (opt->count < 2) {
-        throw ConfigError(fmt::format("--count {}: a compression needs at least 2 spheres (a lone sphere has no "
-                                      "binary collisions, so neither a pressure nor a collision budget ends its run)",
-                                      opt->count));
+        throw ConfigError(
+            fmt::format("--count {}: a compression needs at least 2 spheres (a lone sphere has no "
+                        "binary collisions, so neither a pressure nor a collision budget ends its run)",
+                        opt->count));
       }
       const auto dist = makeDistribution(opt->dist);
       const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;
@@ -480,9 +485,10 @@ Runner addJam(CLI::App& app) {
     if (!resuming) {
       const Index count = start.count();
       if (count < 2) {
-        throw ConfigError(fmt::format("{}: {} sphere{}; a compression needs at least 2 (a lone sphere has no binary "
-                                      "collisions, so neither a pressure nor a collision budget ends its run)",
-                                      opt->input, count, count == 1 ? "" : "s"));
+        throw ConfigError(
+            fmt::format("{}: {} sphere{}; a compression needs at least 2 (a lone sphere has no binary "
+                        "collisions, so neither a pressure nor a collision budget ends its run)",
+                        opt->input, count, count == 1 ? "" : "s"));
       }
       if (start.id.size() != static_cast<std::size_t>(count)) {
         start.id.resize(static_cast<std::size_t>(count));
@@ -510,9 +516,10 @@ Runner addJam(CLI::App& app) {
         std::error_code ec;
         const auto size = std::filesystem::file_size(opt->eosCsv, ec);
         if (ec || static_cast<std::int64_t>(size) < eosOffset) {
-          throw InputError(fmt::format("--eos-csv '{}' (from the checkpoint): missing or shorter than the {} bytes it "
-                                       "had at the checkpoint",
-                                       opt->eosCsv, eosOffset));
+          throw InputError(
+              fmt::format("--eos-csv '{}' (from the checkpoint): missing or shorter than the {} bytes it "
+                          "had at the checkpoint",
+                          opt->eosCsv, eosOffset));
         }
         std::filesystem::resize_file(opt->eosCsv, static_cast<std::uintmax_t>(eosOffset));
         eosCsv.open(opt->eosCsv, std::ios::app);
@@ -586,8 +593,8 @@ Runner addJam(CLI::App& app) {
         system, copt,
         [&](const edmd::Progress& p) {
           if (eosCsv.is_open()) {
-            eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure,
-                                  p.rate, p.collisionsPerParticle, p.time, p.wallSeconds);
+            eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
+                                  p.collisionsPerParticle, p.time, p.wallSeconds);
             flushEos(eosCsv);
           }
           if (p.wallSeconds - lastPrint >= opt->progressSeconds) {
@@ -674,8 +681,8 @@ Runner addJam(CLI::App& app) {
       out.attributes = start.attributes;
       out.attributes["generator"] = "polydem jam";
       out.attributes["schedule"] = edmd::formatSchedule(copt.schedule);
-      out.attributes["target"] =
-          opt->targetPhi > 0 ? fmt::format("phi {:.17g}", opt->targetPhi) : fmt::format("p {:.17g}", opt->targetPressure);
+      out.attributes["target"] = opt->targetPhi > 0 ? fmt::format("phi {:.17g}", opt->targetPhi)
+                                                    : fmt::format("p {:.17g}", opt->targetPressure);
       out.attributes["target_reached"] = targetReached ? "yes" : "no";
       out.attributes["stop_reason"] = stopReason;
       out.attributes["packing_fraction"] = fmt::format("{:.17g}", phi);
@@ -693,15 +700,14 @@ Runner addJam(CLI::App& app) {
     if (eosCsv.is_open()) eosCsv.flush();
     if (interrupted) {
       const int sig = interruptSignal();
-      fmt::print("interrupted ({}) at block {}{}\n",
-                 stoppedForTest ? fmt::format("--stop-after-blocks {}", opt->stopAfterBlocks)
-                                : fmt::format("signal {}", sig),
-                 result.last.blocks,
-                 opt->checkpoint.empty() || !std::filesystem::exists(opt->checkpoint)
-                     ? std::string("; no checkpoint was written, so the run cannot be resumed")
-                     : fmt::format("; continue with `polydem jam --resume {}`{}", opt->checkpoint,
-                                   stopReason == "interrupted" ? ""
-                                                               : " (it repeats the run from that checkpoint)"));
+      fmt::print(
+          "interrupted ({}) at block {}{}\n",
+          stoppedForTest ? fmt::format("--stop-after-blocks {}", opt->stopAfterBlocks) : fmt::format("signal {}", sig),
+          result.last.blocks,
+          opt->checkpoint.empty() || !std::filesystem::exists(opt->checkpoint)
+              ? std::string("; no checkpoint was written, so the run cannot be resumed")
+              : fmt::format("; continue with `polydem jam --resume {}`{}", opt->checkpoint,
+                            stopReason == "interrupted" ? "" : " (it repeats the run from that checkpoint)"));
       return kExitInterrupted;
     }
     if (!targetReached) {

@@ -8,8 +8,10 @@ file(WRITE ${POLYDEM_CLI_WORK}/jam_empty.txt "")
 file(WRITE ${POLYDEM_CLI_WORK}/jam_zero.txt "0 10 10 10\n")
 file(WRITE ${POLYDEM_CLI_WORK}/jam_one_walls.txt "# boundaries: wall wall wall\n1 10 10 10\n5 5 5 1\n")
 # 8 unit spheres on a 2 x 2 x 2 lattice of spacing 2.5 (phi 0.27); with and without a boundaries line.
-set(_lattice "1.25 1.25 1.25 1\n3.75 1.25 1.25 1\n1.25 3.75 1.25 1\n3.75 3.75 1.25 1\n1.25 1.25 3.75 1\n3.75 1.25 3.75 1\n1.25 3.75 3.75 1\n3.75 3.75 3.75 1\n")
-file(WRITE ${POLYDEM_CLI_WORK}/jam_lattice_periodic.txt "# boundaries: periodic periodic periodic\n8 5 5 5\n${_lattice}")
+string(CONCAT _lattice "1.25 1.25 1.25 1\n3.75 1.25 1.25 1\n1.25 3.75 1.25 1\n3.75 3.75 1.25 1\n"
+                       "1.25 1.25 3.75 1\n3.75 1.25 3.75 1\n1.25 3.75 3.75 1\n3.75 3.75 3.75 1\n")
+file(WRITE ${POLYDEM_CLI_WORK}/jam_lattice_periodic.txt
+     "# boundaries: periodic periodic periodic\n8 5 5 5\n${_lattice}")
 file(WRITE ${POLYDEM_CLI_WORK}/jam_lattice_open.txt "8 5 5 5\n${_lattice}")
 
 set(_fast --schedule 1e-2:1e2,1e-3)
