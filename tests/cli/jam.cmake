@@ -100,3 +100,8 @@ set_tests_properties(cli_jam_resume PROPERTIES TIMEOUT 300 LABELS "cli;jam")
 add_test(NAME cli_jam_interrupt
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_interrupt.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_jam_interrupt PROPERTIES TIMEOUT 300 LABELS "cli;jam")
+
+# --- --reopen reads the file's reduced_pressure strictly (io::numericAttribute) ----------------------
+add_test(NAME cli_jam_reopen_attribute
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_reopen_attribute.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
+set_tests_properties(cli_jam_reopen_attribute PROPERTIES TIMEOUT 120 LABELS "cli;jam")
