@@ -99,7 +99,9 @@ void validateCompression(const HardSphereSystem& system, const CompressionOption
         fmt::format("target pressure must be finite and > 3 (free-volume regime), got {}", options.targetPressure));
   }
   const double limit = maxResolvablePressure(system);
-  if (options.checkPrecision && options.targetPressure > limit) {
+  const bool densityTarget = options.targetPackingFraction != 0.0;
+  // With a density target the pressure is only the jamming guard, capped at the limit in compress().
+  if (options.checkPrecision && !densityTarget && options.targetPressure > limit) {
     throw ConfigError(fmt::format(
         "target pressure {:g} is beyond what double precision resolves for this system: near jamming the "
         "gaps of the smallest spheres are 2 r_min / p, and at p > {:.2g} they are fewer than {:g} units in the "
@@ -207,7 +209,7 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
       result.targetReached = true;
       break;
     }
-    if (progress.pressure >= options.targetPressure) {
+    if (progress.pressure >= (toDensity ? std::min(options.targetPressure, cs.pressureLimit) : options.targetPressure)) {
       // With a density target the pressure bound is the jamming guard: the pressure diverges at phi_J.
       result.stopReason = toDensity ? "jammed before the target packing fraction" : "pressure";
       result.targetReached = !toDensity;

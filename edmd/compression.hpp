@@ -121,8 +121,9 @@ double maxResolvablePressure(const HardSphereSystem& system);
 inline constexpr double kGapUlps = 32.0;
 
 /// Check a schedule and targets before a run (also done by compress()): rates in [kMinRate, kMaxRate],
-/// stage pressures increasing and > 1, target pressure in (3, maxResolvablePressure], target packing
-/// fraction in (current, 1) or 0. Throws ConfigError naming the problem.
+/// stage pressures increasing and > 1, target pressure in (3, maxResolvablePressure] (with a target
+/// packing fraction it is the jamming guard, and compress() caps it at the limit instead), target packing
+/// fraction in (current, 1) or 0, at least 2 spheres. Throws ConfigError naming the problem.
 void validateCompression(const HardSphereSystem& system, const CompressionOptions& options);
 inline constexpr double kMinRate = 1e-9;  ///< slower: jamming would need > ~1e9 collisions per particle
 inline constexpr double kMaxRate = 1.0;   ///< faster: spheres grow faster than they move (no thermostat)

@@ -368,6 +368,10 @@ TEST(Compression, RefusesUnreachableTargets) {
   EXPECT_THROW(validateCompression(system, options), ConfigError);
   options.targetPressure = 1e10;
   EXPECT_NO_THROW(validateCompression(system, options));
+  // With a density target the pressure is the jamming guard: capped at the limit, not refused.
+  options.targetPressure = 1e15;
+  options.targetPackingFraction = 0.5;
+  EXPECT_NO_THROW(validateCompression(system, options));
   for (const char* schedule : {"10", "1e-12", "1e-3:0.5,1e-4"}) {
     CompressionOptions bad;
     bad.schedule = parseSchedule(schedule);
