@@ -157,6 +157,26 @@ struct PressureWindow {
   double reducedPressure() const;
 };
 
+/// The complete state of a synchronised system (clock at 0), in the engine's internal numbering: what
+/// restoreState() needs to continue exactly as the saved system would have (checkpoint and resume, bit
+/// for bit). The event schedule is not part of it: at a synchronisation it is reset to "every particle
+/// checks now", a function of N alone. The neighbourhoods and lists are, because exits between global
+/// rebuilds (advances, re-centring) shape the arithmetic of the trajectory.
+struct SystemState {
+  std::vector<double> position, velocity;  ///< 3N, internal order, (x, y, z) per particle
+  std::vector<double> radius, mass;        ///< N: radius at clock 0, mass
+  std::vector<std::int64_t> external;      ///< N: internal slot -> caller's index
+  std::vector<double> hoodCentre;          ///< 3N
+  std::vector<double> hoodRadius, hoodSkin;
+  std::vector<std::int64_t> hoodBegin, hoodSize, hoodCapacity;
+  std::vector<std::int64_t> neighbours;  ///< the flat list storage, spare slots included
+  double growth = 0.0, elapsed = 0.0, skinFloor = 1.0, sizeRatio = 1.0, kinetic = 0.0, maxOverlap = 0.0;
+  PressureWindow window;
+  EventCounts total;
+  std::int64_t collisionsAtSort = 0, collisionsAtRebuild = 0, exitsAtRebuild = 0, pairsAtRebuild = 0, pairWork = 0;
+  CollisionRecord lastCollision;
+};
+
 class HardSphereSystem {
  public:
   /// Hard spheres at the given centres (3 x N, inside the box), radii (N, > 0) and velocities (3 x N).
@@ -231,6 +251,13 @@ class HardSphereSystem {
   double meanNeighbours() const;
   /// Current skin floor f (see SystemOptions::skinFloor).
   double skinFloor() const { return skinFloor_; }
+
+  /// The state at a synchronisation (synchronises first). O(N x neighbours) copies; never called per event.
+  SystemState saveState();
+  /// Continue from `state` (saved from a system of the same count, box and options): afterwards this system
+  /// evolves bit for bit as the saved one did after saveState(). Throws InputError for inconsistent sizes or
+  /// a numbering that is not a permutation.
+  void restoreState(const SystemState& state);
 
   /// Check every invariant (tests; O(N^2) for N <= 2000, else O(N x neighbours)): particles inside their
   /// neighbourhoods, lists complete and symmetric, schedule symmetric, heap consistent, event times not

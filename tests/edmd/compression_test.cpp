@@ -238,6 +238,158 @@ TEST(Compression, RejectsBadSchedulesAndTargets) {
   EXPECT_THROW(compress(system, options), ConfigError);
 }
 
+// Checkpoint/resume at the compression level: the state saved at block K (system + CompressionState),
+// restored into a new system, finishes exactly like the uninterrupted run.
+TEST(Compression, ResumedRunIsBitIdentical) {
+  PackingRequest request;
+  request.radii = std::vector<double>(160, 1.0);
+  for (std::size_t i = 0; i < request.radii.size(); i += 3) request.radii[i] = 1.3;
+  request.packingFraction = 0.3;
+  request.seed = 7;
+  const Configuration c = randomSequentialAddition(request);
+  CompressionOptions options;
+  options.schedule = parseSchedule("1e-2:1e2,1e-3:1e4,5e-4");
+  options.targetPressure = 1e7;
+  auto finish = [&](HardSphereSystem& system, CompressionState* cs, const BoundaryHook& hook) {
+    return compress(system, options, {}, hook, cs);
+  };
+  HardSphereSystem whole(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 3));
+  SystemState saved;
+  CompressionState savedCs;
+  const CompressionResult a = finish(whole, nullptr, [&](HardSphereSystem& s, const CompressionState& cs) {
+    if (cs.blocks == 12) {
+      saved = s.saveState();
+      savedCs = cs;
+    }
+    return false;
+  });
+  EXPECT_EQ(a.stopReason, "pressure");
+  EXPECT_TRUE(a.targetReached);
+  ASSERT_EQ(savedCs.blocks, 12);
+
+  // The interrupted run: stops at block 12.
+  HardSphereSystem first(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 3));
+  CompressionState cs;
+  const CompressionResult stopped =
+      finish(first, &cs, [](HardSphereSystem&, const CompressionState& s) { return s.blocks == 12; });
+  EXPECT_EQ(stopped.stopReason, "interrupted");
+  EXPECT_FALSE(stopped.targetReached);
+  EXPECT_EQ(cs.blocks, 12);
+  const SystemState atStop = first.saveState();
+  EXPECT_EQ(atStop.position, saved.position);
+
+  Eigen::Matrix3Xd x(3, c.radius.size()), v(3, c.radius.size());
+  Eigen::VectorXd r(c.radius.size());
+  for (std::size_t i = 0; i < atStop.radius.size(); ++i) {
+    const Index e = static_cast<Index>(atStop.external[i]);
+    for (std::size_t k = 0; k < 3; ++k) {
+      x(static_cast<Index>(k), e) = atStop.position[3 * i + k];
+      v(static_cast<Index>(k), e) = atStop.velocity[3 * i + k];
+    }
+    r[e] = atStop.radius[i];
+  }
+  HardSphereSystem resumed(c.box, x, r, v);
+  resumed.restoreState(atStop);
+  const CompressionResult b = finish(resumed, &cs, {});
+  EXPECT_EQ(b.stopReason, a.stopReason);
+  EXPECT_EQ(b.last.blocks, a.last.blocks);
+  EXPECT_EQ(b.last.pressure, a.last.pressure);
+  EXPECT_EQ(b.counts.collisions, a.counts.collisions);
+  EXPECT_EQ(resumed.positions(), whole.positions());
+  EXPECT_EQ(resumed.radii(), whole.radii());
+  EXPECT_EQ(resumed.velocities(), whole.velocities());
+}
+
+TEST(Compression, CollisionBudgetEndsTheLastBlockExactly) {
+  PackingRequest request;
+  request.radii = std::vector<double>(120, 1.0);
+  request.packingFraction = 0.3;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 1));
+  CompressionOptions options;
+  options.schedule = {{1e-5}};  // blocks of 1000 collisions per particle
+  options.maxCollisionsPerParticle = 25;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "collision budget");
+  EXPECT_FALSE(r.targetReached);
+  EXPECT_EQ(r.counts.collisions, 25 * 120);
+}
+
+TEST(Compression, TargetPackingFractionBeyondJammingStopsJammed) {
+  PackingRequest request;
+  request.radii = std::vector<double>(100, 1.0);
+  request.packingFraction = 0.3;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 2));
+  CompressionOptions options;
+  options.schedule = parseSchedule("1e-2:1e2,1e-3");
+  options.targetPackingFraction = 0.72;  // beyond random close packing, below FCC: jams first
+  options.targetPressure = 1e5;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "jammed before the target packing fraction");
+  EXPECT_FALSE(r.targetReached);
+  EXPECT_LT(system.packingFraction(), 0.72);
+}
+
+// A target beyond round-off (the precision check switched off): the pressure plateaus and the run ends
+// there, marked not reached, instead of spinning until the collision budget (the pre-issue behaviour:
+// 40 spheres sat at p ~ 3e14 for 870,000 collisions per particle).
+TEST(Compression, PressurePlateauAtRoundOffEndsTheRun) {
+  PackingRequest request;
+  request.radii = std::vector<double>(40, 1.0);
+  request.packingFraction = 0.3;
+  request.seed = 3;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 3));
+  CompressionOptions options;
+  options.schedule = parseSchedule("1e-2:1e2,1e-3:1e4,1e-3");
+  options.targetPressure = 1e17;
+  EXPECT_THROW(validateCompression(system, options), ConfigError);
+  options.checkPrecision = false;
+  const CompressionResult r = compress(system, options);
+  EXPECT_EQ(r.stopReason, "pressure plateau at round-off");
+  EXPECT_FALSE(r.targetReached);
+  EXPECT_GT(r.last.pressure, 1e13);
+  EXPECT_LT(r.last.collisionsPerParticle, 1e5);
+}
+
+TEST(Compression, RefusesUnreachableTargets) {
+  PackingRequest request;
+  request.radii = std::vector<double>(200, 1.0);
+  request.packingFraction = 0.3;
+  const Configuration c = randomSequentialAddition(request);
+  HardSphereSystem system(c.box, c.position, c.radius, maxwellBoltzmannVelocities(c.radius, 1));
+  // 200 monodisperse spheres plateau at p ~ 2.4e14 (docs/edmd.md): the limit lies below, 1e12 above it.
+  const double limit = maxResolvablePressure(system);
+  EXPECT_GT(limit, 1e13);
+  EXPECT_LT(limit, 2.4e14);
+  CompressionOptions options;
+  options.targetPressure = 1e15;
+  EXPECT_THROW(validateCompression(system, options), ConfigError);
+  options.targetPressure = 1e10;
+  EXPECT_NO_THROW(validateCompression(system, options));
+  // With a density target the pressure is the jamming guard: capped at the limit, not refused.
+  options.targetPressure = 1e15;
+  options.targetPackingFraction = 0.5;
+  EXPECT_NO_THROW(validateCompression(system, options));
+  for (const char* schedule : {"10", "1e-12", "1e-3:0.5,1e-4"}) {
+    CompressionOptions bad;
+    bad.schedule = parseSchedule(schedule);
+    EXPECT_THROW(validateCompression(system, bad), ConfigError) << schedule;
+  }
+  CompressionOptions block;
+  block.blockCollisionsPerParticle = 0.5;
+  EXPECT_THROW(validateCompression(system, block), ConfigError);
+  CompressionOptions budget;
+  budget.maxCollisionsPerParticle = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(validateCompression(system, budget), ConfigError);
+  // One sphere in a walled box: only wall collisions, which no pressure or collision budget counts.
+  const Box walls = Box::cubic(10.0, Boundary::Wall);
+  HardSphereSystem lone(walls, Eigen::Matrix3Xd::Constant(3, 1, 5.0), Eigen::VectorXd::Ones(1),
+                        Eigen::Matrix3Xd::Constant(3, 1, 1.0));
+  EXPECT_THROW(compress(lone, CompressionOptions{}), ConfigError);
+}
+
 TEST(Compression, JammingDensityEstimate) {
   EXPECT_DOUBLE_EQ(jammingDensityEstimate(0.6, 30.0), 0.6 / 0.9);
   EXPECT_TRUE(std::isnan(jammingDensityEstimate(0.3, 2.0)));
