@@ -36,7 +36,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   // A gas keeps its pressure too: without a backbone the test has nothing jammed to watch, and its
   // "no leak, no drift" would be a vacuous "jammed".
   if (!rattler.empty() && std::count(rattler.begin(), rattler.end(), 0) == 0) {
-    out.verdict = "not tested: every sphere is a rattler (empty backbone), so there is no jammed structure to watch";
+    out.verdict = "not tested: every sphere is a rattler (empty backbone), and the test watches the backbone";
     return out;
   }
   const auto start = std::chrono::steady_clock::now();

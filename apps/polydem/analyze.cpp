@@ -22,6 +22,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/validators.hpp"
+#include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/io/attributes.hpp"
 #include "core/io/particle_file.hpp"
@@ -370,6 +371,11 @@ Runner addAnalyze(CLI::App& app) {
       throw ConfigError("--certify: the ideal-contact LP test needs GLPK (libglpk-dev), which this build did not "
                         "find; add --no-ideal to run the load test alone");
     }
+    try {
+      broadphase::makeBroadPhase(opt->broadPhase);
+    } catch (const ConfigError& e) {
+      throw ConfigError(fmt::format("--broad-phase: {}", e.what()));
+    }
     double velocityThreshold = 1e-4;
     if (!opt->velocityThreshold.empty() && !opt->velocityThreshold.front().empty()) {
       const std::optional<double> value = io::parseFiniteDouble(opt->velocityThreshold.front());
@@ -404,8 +410,9 @@ Runner addAnalyze(CLI::App& app) {
     const io::ParticleData data = io::readParticles(opt->input);
     const Index n = data.count();
     if (opt->removeSphere >= n) {
-      throw ConfigError(fmt::format("--remove {}: the packing has {} spheres (indices 0..{})", opt->removeSphere, n,
-                                    n - 1));
+      throw ConfigError(n == 0 ? fmt::format("--remove {}: the packing has no spheres", opt->removeSphere)
+                               : fmt::format("--remove {}: the packing has {} spheres (indices 0..{})",
+                                             opt->removeSphere, n, n - 1));
     }
     const bool velocityRattlers = velocityOption->count() > 0;
     if (velocityRattlers && n > 0 && !data.velocity) {
@@ -446,9 +453,9 @@ Runner addAnalyze(CLI::App& app) {
       const double reach = opt->correlationMax * 2.0 * data.radius.maxCoeff();
       if (2.0 * reach > data.box.lengths().minCoeff()) {
         throw ConfigError(fmt::format(
-            "--gr-max {}: g(x) up to x = {} needs centre distances up to x 2 r_max = {:.6g}, more than half the "
+            "--gr-max {}: g(x) up to x = {} needs centre distances up to {} x 2 r_max = {:.6g}, more than half the "
             "shortest box length {:.6g}; lower --gr-max below {:.4g}",
-            opt->correlationMax, opt->correlationMax, reach, data.box.lengths().minCoeff(),
+            opt->correlationMax, opt->correlationMax, opt->correlationMax, reach, data.box.lengths().minCoeff(),
             data.box.lengths().minCoeff() / (4.0 * data.radius.maxCoeff())));
       }
     }
