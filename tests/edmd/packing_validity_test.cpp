@@ -102,6 +102,15 @@ TEST(PackingValidity, PolydisperseBoundShrinksToTheSmallestRadius) {
   x.col(1) << 5, 5, 5;
   const PackingValidity wide = checkHardSpherePacking(SphereView{x, r}, Box::cubic(12.0, Boundary::Periodic), {});
   EXPECT_DOUBLE_EQ(wide.densityBound, 1.0);
+  EXPECT_TRUE(wide.valid()) << describeInvalidPacking(wide);
+  // More sphere volume than box volume (phi = 1.04): refused against the box volume whatever the tolerance.
+  r[1] = 3.7;
+  const PackingValidity full =
+      checkHardSpherePacking(SphereView{x, r}, Box::cubic(6.0, Boundary::Periodic), {.overlapTolerance = 10.0});
+  EXPECT_FALSE(full.overlapTooLarge());
+  EXPECT_GT(full.packingFraction, 1.0);
+  EXPECT_TRUE(full.densityTooHigh());
+  EXPECT_NE(describeInvalidPacking(full).find("the box volume"), std::string::npos) << describeInvalidPacking(full);
 }
 
 TEST(PackingValidity, OverlapIsMeasuredAgainstTheSmallerRadius) {
