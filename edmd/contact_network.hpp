@@ -99,7 +99,8 @@ struct PairGap {
 /// The true smallest relative gap over all pairs (not limited by a contact cutoff), or nullopt for fewer
 /// than two spheres. Brute force up to a few thousand spheres, else a broad-phase search whose skin grows
 /// until the closest pair is certain: O(N) for packings and gases alike.
-std::optional<PairGap> smallestGap(const SphereView& spheres, const Box& box, const std::string& broadPhase = "hgrid-td");
+std::optional<PairGap> smallestGap(const SphereView& spheres, const Box& box,
+                                   const std::string& broadPhase = "hgrid-td");
 
 // Validity of a hard-sphere packing, checked before any contact statistics or jamming verdict: a
 // configuration with real overlaps or a density no packing can have is not a hard-sphere packing, and

@@ -298,7 +298,8 @@ Runner addAnalyze(CLI::App& app) {
                   "achieved)");
   cmd->add_option("--leak-test", opt->leakCollisions,
                   "pressure-leak test (seed ch. 9): plain event-driven dynamics for this many collisions per particle; "
-                  "a jammed packing keeps its pressure and its backbone does not drift (with --remove: without the sphere)")
+                  "a jammed packing keeps its pressure and its backbone does not drift (with --remove: without the "
+                  "sphere)")
       ->check(finitePositive());
   cmd->add_option("--leak-blocks", opt->leakBlocks, "--leak-test: blocks (one pressure each)")
       ->check(CLI::Range(4, 100000))

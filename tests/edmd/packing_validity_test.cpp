@@ -141,7 +141,10 @@ TEST(PackingValidity, WallsAndOwnImages) {
       << describeInvalidPacking(wall);
   // Wider than a periodic length: it overlaps itself (brute force, no broad phase fits that box).
   const PackingValidity self =
-      checkHardSpherePacking(SphereView{x, r}, Box(Eigen::Vector3d(1.5, 10, 10), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic}), {});
+      checkHardSpherePacking(SphereView{x, r},
+                             Box(Eigen::Vector3d(1.5, 10, 10),
+                                 {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic}),
+                             {});
   EXPECT_NEAR(self.worstOverlap, 0.5, 1e-12);
   EXPECT_EQ(self.worstJ, 0);
   EXPECT_NE(describeInvalidPacking(self).find("own periodic image"), std::string::npos);
