@@ -481,7 +481,15 @@ Runner addAnalyze(CLI::App& app) {
     const edmd::PackingValidity validity = edmd::requireHardSpherePacking(
         spheres, data.box, {.overlapTolerance = contact.relativeGap, .broadPhase = opt->broadPhase}, opt->input,
         data.id);
-    const edmd::ContactNetwork net = edmd::analyseContacts(spheres, data.box, contact);
+    // Contacts are found by the minimum image; a periodic length below 2 (2 r_max + gap) would let a sphere
+    // touch two images of another, which the search cannot represent.
+    const edmd::ContactNetwork net = [&] {
+      try {
+        return edmd::analyseContacts(spheres, data.box, contact);
+      } catch (const ConfigError& e) {
+        throw InputError(fmt::format("{}: the box is too small for the contact network: {}", opt->input, e.what()));
+      }
+    }();
     const double phi = solidVolume(data) / data.box.volume();
 
     printHeader(*opt, data);
@@ -536,11 +544,25 @@ Runner addAnalyze(CLI::App& app) {
     if (n == 0) {
       fmt::print("Z(tau), all spheres     undefined (no spheres)\n");
     } else {
+      // tau up to 0.1, as far as the minimum image reaches on periodic axes: tau 2 r_max <= L / 2 - 2 r_max.
+      double periodicMin = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        if (data.box.periodic(k)) periodicMin = std::min(periodicMin, data.box.length(k));
+      }
+      const double rmax = data.radius.maxCoeff();
+      const double tauLimit = (periodicMin / 2.0 - 2.0 * rmax) / (2.0 * rmax * (1.0 + 1e-9));
       std::vector<double> taus;
-      for (int e = -15; e <= -1; ++e) taus.push_back(std::pow(10.0, e));
+      for (int e = -15; e <= -1; ++e) {
+        if (std::pow(10.0, e) <= tauLimit) taus.push_back(std::pow(10.0, e));
+      }
       const std::vector<double> z = edmd::cumulativeCoordination(spheres, data.box, taus, opt->broadPhase);
       std::string line;
       for (std::size_t k = 0; k < taus.size(); ++k) line += fmt::format(" {:.0e}:{:.3f}", taus[k], z[k]);
+      if (taus.size() < 15) {
+        line += taus.empty() ? std::string(" undefined (the box is too small for gaps of 1e-15)")
+                             : fmt::format("; undefined above tau = {:.0e} (gaps beyond half the box length)",
+                                           taus.back());
+      }
       fmt::print("Z(tau), all spheres    {}\n", line);
       if (!opt->coordinationCsv.empty()) {
         io::writeFileAtomically(opt->coordinationCsv, csvText("tau,Z", taus, z));
