@@ -30,6 +30,9 @@ analyze_cli_test(fcc_inflated_density
   EXIT 2
   PASS "packing fraction 0.76291779 exceeds 0.74048049, the largest any packing of these radii can have \\(FCC density pi/sqrt\\(18\\) for equal spheres\\); worst overlap: spheres [0-9]+ and [0-9]+ overlap by 0.0198"
   FAIL "ideal-contact LP|jamming test \\(loads\\)")
+analyze_cli_test(small_box_refused
+  COMMAND analyze ${_analyze_in}/fcc_one_cell.txt --pressure 1e12 --certify
+  EXIT 2 PASS "fcc_one_cell.txt: the box is too small for the contact network" FAIL "LP test|\\(loads\\)")
 analyze_cli_test(fcc_inflated_structure_only
   COMMAND analyze ${_analyze_in}/fcc_inflated.txt --structure-only --order
   PASS "bond order \\(l = 6\\) +p_c = 1.0000")
