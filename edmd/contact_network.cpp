@@ -5,11 +5,201 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::edmd {
+
+std::string_view verdictName(JammingVerdict verdict) {
+  switch (verdict) {
+    case JammingVerdict::Jammed:
+      return "jammed";
+    case JammingVerdict::Unjammed:
+      return "unjammed";
+    case JammingVerdict::Undecided:
+      return "undecided";
+    case JammingVerdict::NotTested:
+      break;
+  }
+  return "not tested";
+}
+
+namespace {
+
+// Brute force below this many spheres: N^2 / 2 = 2e6 distance evaluations take milliseconds, and it has
+// no box-size condition.
+constexpr Index kBruteForceSpheres = 2000;
+
+// True if a broad phase accepts `skin` in this box (periodic lengths >= 2 (2 r_max + skin)).
+bool broadPhaseFits(const Box& box, double rmax, double skin) {
+  for (int k = 0; k < 3; ++k) {
+    if (box.periodic(k) && box.length(k) < 2.0 * (2.0 * rmax + skin)) return false;
+  }
+  return true;
+}
+
+// Calls f(i, j, distance) for every pair i < j with |r_ij| - (r_i + r_j) <= skin (minimum image): through
+// the broad phase when the box allows, else by brute force.
+template <class F>
+void forPairsWithin(const SphereView& spheres, const Box& box, double skin, const std::string& broadPhase, F&& f) {
+  const Index n = spheres.count();
+  if (n < 2) return;
+  const double rmax = spheres.radius.maxCoeff();
+  if (n > kBruteForceSpheres && broadPhaseFits(box, rmax, skin)) {
+    auto broad = broadphase::makeBroadPhase(broadPhase);
+    broad->build(spheres, box, skin);
+    std::vector<broadphase::Pair> pairs;
+    broad->findPairs(spheres, pairs);
+    for (const broadphase::Pair& p : pairs) {
+      f(p.i, p.j, box.minimumImage(spheres.centre.col(p.i) - spheres.centre.col(p.j)).norm());
+    }
+    return;
+  }
+  for (Index i = 0; i < n; ++i) {
+    for (Index j = i + 1; j < n; ++j) {
+      const double d = box.minimumImage(spheres.centre.col(i) - spheres.centre.col(j)).norm();
+      if (d - (spheres.radius[i] + spheres.radius[j]) <= skin) f(i, j, d);
+    }
+  }
+}
+
+}  // namespace
+
+std::optional<PairGap> smallestGap(const SphereView& spheres, const Box& box, const std::string& broadPhase) {
+  const Index n = spheres.count();
+  if (n < 2) return std::nullopt;
+  const double rmax = spheres.radius.maxCoeff();
+  PairGap best;
+  best.gap = std::numeric_limits<double>::infinity();
+  auto consider = [&](Index i, Index j, double d) {
+    const double s = spheres.radius[i] + spheres.radius[j];
+    const double g = (d - s) / s;
+    if (g < best.gap) best = {i, j, g};
+  };
+  if (n <= kBruteForceSpheres) {
+    forPairsWithin(spheres, box, std::numeric_limits<double>::infinity(), broadPhase, consider);
+    return best;
+  }
+  // A pair left out has absolute gap > skin, so relative gap > skin / (2 r_max): the best pair found is
+  // the true smallest once its relative gap is below that. Start from the mean spacing.
+  double skin = std::cbrt(box.volume() / static_cast<double>(n));
+  for (;;) {
+    if (!broadPhaseFits(box, rmax, skin)) {
+      best = {};
+      best.gap = std::numeric_limits<double>::infinity();
+      for (Index i = 0; i < n; ++i) {
+        for (Index j = i + 1; j < n; ++j) {
+          consider(i, j, box.minimumImage(spheres.centre.col(i) - spheres.centre.col(j)).norm());
+        }
+      }
+      return best;
+    }
+    best.gap = std::numeric_limits<double>::infinity();
+    forPairsWithin(spheres, box, skin, broadPhase, consider);
+    if (best.gap <= skin / (2.0 * rmax)) return best;
+    skin = std::isfinite(best.gap) ? best.gap * 2.0 * rmax * (1.0 + 1e-12) : 4.0 * skin;
+  }
+}
+
+PackingValidity checkHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options) {
+  if (!(options.overlapTolerance >= 0.0) || !std::isfinite(options.overlapTolerance)) {
+    throw ConfigError(fmt::format("packing check: overlap tolerance must be finite and >= 0, got {}",
+                                  options.overlapTolerance));
+  }
+  PackingValidity out;
+  const Index n = spheres.count();
+  out.spheres = n;
+  out.tolerance = options.overlapTolerance;
+  if (n == 0) {
+    out.equalSpheres = true;
+    out.densityBound = kPi / std::sqrt(18.0);
+    return out;
+  }
+  double volume = 0.0, cubes = 0.0;
+  const double rmin = spheres.radius.minCoeff(), rmax = spheres.radius.maxCoeff();
+  for (Index i = 0; i < n; ++i) {
+    const double r = spheres.radius[i];
+    cubes += r * r * r;
+  }
+  volume = 4.0 / 3.0 * kPi * cubes;
+  out.packingFraction = volume / box.volume();
+  out.equalSpheres = rmax <= rmin * (1.0 + 1e-12);
+  const double mean3 = cubes / static_cast<double>(n);
+  out.densityBound = std::min(1.0, kPi / std::sqrt(18.0) * mean3 / (rmin * rmin * rmin));
+
+  auto overlap = [&](double h, double scale, Index i, Index j, int wall) {
+    if (!(h > 0.0)) return;
+    const double relative = h / scale;
+    if (relative > out.tolerance) ++out.overlaps;
+    if (relative > out.worstOverlap) {
+      out.worstOverlap = relative;
+      out.worstI = i;
+      out.worstJ = j;
+      out.worstWall = wall;
+    }
+  };
+  forPairsWithin(spheres, box, 0.0, options.broadPhase, [&](Index i, Index j, double d) {
+    overlap(spheres.radius[i] + spheres.radius[j] - d, std::min(spheres.radius[i], spheres.radius[j]), i, j, -1);
+  });
+  for (Index i = 0; i < n; ++i) {
+    const double r = spheres.radius[i];
+    for (int k = 0; k < 3; ++k) {
+      if (box.periodic(k)) {
+        overlap(2.0 * r - box.length(k), r, i, i, -1);  // its own image, one period away
+        continue;
+      }
+      overlap(r - spheres.centre(k, i), r, i, -1, 2 * k);
+      overlap(spheres.centre(k, i) + r - box.length(k), r, i, -1, 2 * k + 1);
+    }
+  }
+  return out;
+}
+
+std::string describeInvalidPacking(const PackingValidity& v, std::span<const Index> ids) {
+  if (v.valid()) return {};
+  auto name = [&](Index i) { return ids.empty() ? i : ids[static_cast<std::size_t>(i)]; };
+  std::string worst;
+  if (v.worstI >= 0) {
+    const std::string what =
+        v.worstJ == v.worstI ? fmt::format("sphere {} overlaps its own periodic image", name(v.worstI))
+        : v.worstJ < 0       ? fmt::format("sphere {} crosses the {} wall at {} = {}", name(v.worstI),
+                                           v.worstWall % 2 ? "upper" : "lower", "xyz"[v.worstWall / 2],
+                                           v.worstWall % 2 ? "L" : "0")
+                             : fmt::format("spheres {} and {} overlap", name(v.worstI), name(v.worstJ));
+    worst = fmt::format("{} by {:.3g} of the {} radius", what, v.worstOverlap,
+                        v.worstJ >= 0 && v.worstJ != v.worstI ? "smaller" : "sphere's");
+  }
+  std::vector<std::string> parts;
+  if (v.overlapTooLarge()) {
+    parts.push_back(fmt::format("{} (worst of {} overlaps beyond the contact tolerance {:.1e})", worst, v.overlaps,
+                                v.tolerance));
+  }
+  if (v.densityTooHigh()) {
+    parts.push_back(fmt::format(
+        "packing fraction {:.8f} exceeds {:.8f}, the largest any packing of these radii can have ({}){}",
+        v.packingFraction, v.densityBound,
+        v.equalSpheres              ? "FCC density pi/sqrt(18) for equal spheres"
+        : v.densityBound < 1.0 ? "pi/sqrt(18) <r^3>/r_min^3"
+                                    : "the box volume",
+        v.overlapTooLarge() || worst.empty() ? "" : fmt::format("; worst overlap: {}", worst)));
+  }
+  std::string text;
+  for (const std::string& p : parts) text += (text.empty() ? "" : "; ") + p;
+  return text;
+}
+
+PackingValidity requireHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options,
+                                         const std::string& what, std::span<const Index> ids) {
+  const PackingValidity v = checkHardSpherePacking(spheres, box, options);
+  if (!v.valid()) {
+    throw InputError(fmt::format("{}: not a valid hard-sphere packing: {}; no contact statistics or jamming verdict "
+                                 "for it",
+                                 what, describeInvalidPacking(v, ids)));
+  }
+  return v;
+}
 
 double ContactNetwork::meanCoordination() const {
   return particles ? (2.0 * static_cast<double>(contacts.size()) + static_cast<double>(wallContacts.size())) / particles

@@ -8,7 +8,10 @@
 // expose further rattlers (digest §3.8 [rec]). Isostatic backbone in a periodic box (collective
 // jamming, fixed lattice): M = N_f + 1 = 3 N' - 2 contacts among N' non-rattlers (eq. 4.8, :4482-4502).
 #include <cstdint>
+#include <optional>
+#include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
@@ -16,6 +19,13 @@
 #include "core/particle_store.hpp"
 
 namespace polydem::edmd {
+
+/// Outcome of a jamming test. NotTested: the test did not run or cannot apply (no spheres, no LP solved,
+/// nothing to watch), so it says nothing either way; never read it as "jammed".
+enum class JammingVerdict { NotTested, Jammed, Unjammed, Undecided };
+
+/// "not tested", "jammed", "unjammed", "undecided".
+std::string_view verdictName(JammingVerdict verdict);
 
 struct ContactOptions {
   double relativeGap = 1e-8;  ///< tau: contact when gap <= tau (r_i + r_j)
@@ -79,5 +89,72 @@ PairCorrelation pairCorrelation(const SphereView& spheres, const Box& box, doubl
 /// Z_b ~ 11 (l/D)^0.6 of seed :11402-11404 adds 3e-4 per particle), and 100/p when there is no plateau;
 /// at most 1e-3.
 double defaultContactGap(double pressure);
+
+/// The pair of spheres with the smallest relative gap (|r_ij| - s) / s, s = r_i + r_j, minimum image.
+struct PairGap {
+  Index i = -1, j = -1;
+  double gap = 0.0;  ///< relative; negative = overlap
+};
+
+/// The true smallest relative gap over all pairs (not limited by a contact cutoff), or nullopt for fewer
+/// than two spheres. Brute force up to a few thousand spheres, else a broad-phase search whose skin grows
+/// until the closest pair is certain: O(N) for packings and gases alike.
+std::optional<PairGap> smallestGap(const SphereView& spheres, const Box& box,
+                                   const std::string& broadPhase = "hgrid-td");
+
+// Validity of a hard-sphere packing, checked before any contact statistics or jamming verdict: a
+// configuration with real overlaps or a density no packing can have is not a hard-sphere packing, and
+// every verdict on it (the LP tests treat near-contacts as exact contacts) would be meaningless.
+//
+// Overlaps: h_ij = r_i + r_j - |r_ij| measured against the smaller radius of the pair, h_ij / min(r_i, r_j),
+// so that a small sphere sunk into a large one counts as much as two equal spheres overlapping; a sphere
+// crossing a hard wall by h counts h / r_i; a sphere larger than half a periodic length overlaps its own
+// image. Refused beyond the tolerance (the contact tolerance: round-off of a packing jammed to gaps
+// below it stays far inside).
+//
+// Density bound: phi = sum (4/3) pi r_i^3 / V must not exceed
+//   phi_max = min(1, pi / sqrt(18) <r^3> / r_min^3)   (x (1 + 1e-9) for round-off in the sums).
+// Disjoint bodies never fill more than the box (1). Shrinking every sphere about its centre to r_min keeps
+// a packing a packing, now of equal spheres; repeated periodically (and mirrored at hard walls, which
+// tiles space with copies of the box) it is a packing of R^3, whose density is at most the FCC density
+// pi / sqrt(18) (Kepler's conjecture, Hales, Ann. Math. 162 (2005) 1065). So phi r_min^3 / <r^3> <=
+// pi / sqrt(18). For equal spheres this is the FCC density itself; it is the better bound for narrow
+// distributions and exceeds 1 once <r^3> > 1.35 r_min^3. It is a rigorous upper bound, not the (generally
+// unknown) densest packing of the mixture, so it refuses only states no hard-sphere packing can reach.
+// Overlaps within the tolerance could in principle add a factor (1 - tau)^-3; that slack is not
+// granted: a packing denser than the bound has overlaps that add up to an impossible state.
+struct PackingCheckOptions {
+  double overlapTolerance = 1e-8;  ///< largest h / min(r_i, r_j) accepted (the contact tolerance tau)
+  std::string broadPhase = "hgrid-td";
+};
+
+struct PackingValidity {
+  Index spheres = 0;
+  double packingFraction = 0.0;
+  double densityBound = 1.0;  ///< phi_max above (without the round-off allowance)
+  bool equalSpheres = false;  ///< r_max = r_min to round-off: the bound is the FCC density
+  /// Largest overlap relative to the smaller radius (<= 0 when nothing overlaps; then worstI = -1).
+  double worstOverlap = 0.0;
+  Index worstI = -1, worstJ = -1;  ///< worstJ == worstI: its own periodic image; worstJ = -1: a wall
+  int worstWall = -1;              ///< 2 axis + (upper ? 1 : 0) when worstJ = -1
+  Index overlaps = 0;              ///< pairs and wall contacts overlapping beyond the tolerance
+  double tolerance = 0.0;
+
+  bool overlapTooLarge() const { return overlaps > 0; }
+  bool densityTooHigh() const { return packingFraction > densityBound * (1.0 + 1e-9); }
+  bool valid() const { return !overlapTooLarge() && !densityTooHigh(); }
+};
+
+/// Overlaps and density of the spheres (centres inside the box) as described above. O(N) with the broad
+/// phase; brute force O(N^2) when a periodic length is too short for it.
+PackingValidity checkHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options);
+
+/// One-line description of the problems of an invalid packing, naming the worst pair by `ids` (indices
+/// if empty) and its overlap, and the density against its bound; empty if valid.
+std::string describeInvalidPacking(const PackingValidity& validity, std::span<const Index> ids = {});
+
+/// checkHardSpherePacking(), then throw InputError "WHAT: not a valid hard-sphere packing: ..." unless valid.
+PackingValidity requireHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options,
+                                         const std::string& what, std::span<const Index> ids = {});
 
 }  // namespace polydem::edmd

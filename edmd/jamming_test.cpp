@@ -88,6 +88,7 @@ void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<I
   const std::string method = fmt::format("augmented-system certificate, {} backbone spheres, {} contacts",
                                          backbone.size(), a.rows);
   if (!solver.factor(k)) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = fmt::format("unjammed: rigidity matrix rank deficient (floppy modes; {})", method);
     return;
   }
@@ -111,6 +112,7 @@ void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<I
     w = u.normalized();
   }
   if (lambdaMin < 1e-12 * lambdaMax) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = fmt::format("unjammed: rigidity matrix numerically rank deficient (lambda_min / lambda_max = "
                                  "{:.1e}; {})",
                                  lambdaMin / lambdaMax, method);
@@ -128,17 +130,20 @@ void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<I
   const Index negative = static_cast<Index>((f.array() <= 1e-9 * f.maxCoeff()).count());
   const std::int64_t needed = static_cast<std::int64_t>(nf) + 1;
   if (negative == 0) {
+    result.outcome = JammingVerdict::Jammed;
     result.jammed = true;
     result.verdict = fmt::format(
         "jammed (collectively, first order; {}: full rank, lambda_min / lambda_max = {:.1e}, strictly positive "
         "self-stress, smallest / largest force {:.2e}, |A f| / |A| |f| = {:.1e})",
         method, lambdaMin / lambdaMax, f.minCoeff() / f.maxCoeff(), residual);
   } else if (a.rows == needed) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = fmt::format(
         "unjammed: the isostatic backbone's only self-stress has {} non-positive forces, so a motion opens "
         "contacts ({})",
         negative, method);
   } else {
+    result.outcome = JammingVerdict::Undecided;
     result.verdict = fmt::format(
         "inconclusive: hyperstatic backbone ({} contacts > {}) and the projected self-stress has {} "
         "non-positive forces ({}); use the load test",
@@ -166,7 +171,12 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   }
   JammingTestResult result;
   result.motion = Eigen::Matrix3Xd::Zero(3, n);
+  if (n == 0) {
+    result.verdict = "not tested: no spheres";
+    return result;
+  }
   if (backbone.empty()) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = "unjammed: every sphere is a rattler";
     return result;
   }
@@ -197,6 +207,7 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     a.ar.push_back(w.wall % 2 ? -1.0 : 1.0);
   }
   if (a.rows == 0) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = "unjammed: no contacts";
     return result;
   }
@@ -208,6 +219,7 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
   if (static_cast<Index>(backbone.size()) > simplexLimit) {
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (a.rows < needed) {
+      result.outcome = JammingVerdict::Unjammed;
       result.verdict = fmt::format(
           "unjammed: hypostatic backbone ({} contacts < 3N' - {} + 1 = {}, the least that allows full rank and a "
           "self-stress; by counting, no LP above {} spheres)",
@@ -241,11 +253,13 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     glp_load_matrix(lp.p, ne, a.ia.data(), a.ja.data(), a.ar.data());
     const int status = solve(lp.p);
     if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: opening LP status {}", status));
+    ++result.lps;
     result.openingObjective = glp_get_obj_val(lp.p);
     // Any opening motion can be scaled until some contact opens at rate 1, so a non-zero optimum is >= 1.
     if (result.openingObjective > 0.5) {
       for (int r = 1; r <= a.rows; ++r) result.contactsOpened += glp_get_row_prim(lp.p, r) > 1e-6 ? 1 : 0;
       motionFrom(lp.p);
+      result.outcome = JammingVerdict::Unjammed;
       result.verdict =
           fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
     }
@@ -270,13 +284,16 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
     glp_load_matrix(lp.p, ne, a.ia.data(), a.ja.data(), a.ar.data());
     const int status = solve(lp.p);
     if (status != GLP_OPT) throw SimulationError(fmt::format("jamming test: floppy-mode LP status {}", status));
+    ++result.lps;
     result.floppyObjective = glp_get_obj_val(lp.p);
     if (result.floppyObjective > tolerance * a.cols) {
       motionFrom(lp.p);
+      result.outcome = JammingVerdict::Unjammed;
       result.verdict = "unjammed: floppy modes (a motion keeps every contact)";
     }
   }
   if (result.verdict.empty()) {
+    result.outcome = JammingVerdict::Jammed;
     result.jammed = true;
     result.verdict =
         fmt::format("jammed (collectively, first order: {} backbone spheres, {} contacts)", backbone.size(), a.rows);
@@ -686,12 +703,18 @@ void sequentialLoading(const SphereView& spheres, const Box& box, const std::vec
   result.largestDisplacement = peakMax;
   result.meanDisplacement = peakMean;
   result.motion = moved;
-  result.jammed = !stopped && !unsettled;
+  result.jammed = !stopped && !unsettled && result.steps > 0;
+  result.outcome = result.steps == 0 ? JammingVerdict::NotTested
+                   : result.jammed   ? JammingVerdict::Jammed
+                   : stopped         ? JammingVerdict::Unjammed
+                                     : JammingVerdict::Undecided;
   const std::string loads = fmt::format("{} random loads and their opposites, {} LPs", options.loads, result.steps);
   const std::string linear =
       fmt::format("the LPs' own motions reach {:.3g} D ({} loaded spheres beyond the ideal limit {:.1e} D)",
                   result.linearLargest, result.linearDisplaced, options.displacementLimit);
-  if (result.jammed) {
+  if (result.steps == 0) {
+    result.verdict = "not tested: no LP was solved";
+  } else if (result.jammed) {
     result.verdict = fmt::format(
         "jammed (sequential random loading, seed Algorithm 14): {}; largest accumulated displacement of a loaded "
         "sphere {:.3g} D_i (limit {:.3g}), largest mean {:.3g} D_i (limit {:.3g}); {}",
@@ -713,6 +736,10 @@ void sequentialLoading(const SphereView& spheres, const Box& box, const std::vec
 
 LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                     const LoadTestOptions& options) {
+  if (options.loads < 1) {
+    throw ConfigError(fmt::format("jamming test: loads must be >= 1, got {} (a test without loads proves nothing)",
+                                  options.loads));
+  }
   if (options.sequential && options.subpackingRounds > 1) {
     // Rounds of the seed's Algorithm 13 (:5621-5648) around the sequential test: the loaded spheres that
     // moved beyond maxLimit are removed from the packing (no variables, no constraints: stricter than
@@ -796,7 +823,12 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
     loaded.push_back(backbone ? 1 : 0);
   }
   const std::int64_t backboneCount = std::count(loaded.begin(), loaded.end(), 1);
+  if (n == 0) {
+    result.verdict = "not tested: no spheres";
+    return result;
+  }
   if (backboneCount < 2) {
+    result.outcome = JammingVerdict::Unjammed;
     result.verdict = "unjammed: no backbone";
     return result;
   }
@@ -900,6 +932,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
                                    result.localRattlers, options.displacementLimit));
     }
     if (std::count(loaded.begin(), loaded.end(), 1) < 2) {
+      result.outcome = JammingVerdict::Unjammed;
       result.verdict = "unjammed: no sphere is locally jammed";
       return result;
     }
@@ -979,7 +1012,11 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
       result.largestDisplacement = worst;
       result.displaced = worstDisplaced;
       result.motion = std::move(worstMotion);
-      result.jammed = worst <= options.displacementLimit;
+      // worst < 0: no LP ran (no loads); that proves nothing.
+      result.jammed = worst >= 0.0 && worst <= options.displacementLimit;
+      result.outcome = worst < 0.0 ? JammingVerdict::NotTested
+                       : result.jammed ? JammingVerdict::Jammed
+                                       : JammingVerdict::Unjammed;
     }
     const Index setAside = std::count(displacedNow.begin(), displacedNow.end(), 1);
     result.setAsidePerRound.push_back(setAside);
@@ -996,7 +1033,8 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   result.loose = loose;
   const Index backboneTested = static_cast<Index>(backboneCount);
   result.verdict =
-      result.jammed ? fmt::format("jammed{}: no backbone sphere moves more than {:.1e} D under {} random loads",
+      result.outcome == JammingVerdict::NotTested ? std::string("not tested: no LP was solved")
+      : result.jammed ? fmt::format("jammed{}: no backbone sphere moves more than {:.1e} D under {} random loads",
                                   options.strict ? " (strictly: lattice deformation allowed)" : "",
                                   options.displacementLimit, 2 * options.loads)
                     : fmt::format("unjammed{}: a load moves {} backbone spheres by more than {:.1e} D (up to {:.3g} D)",

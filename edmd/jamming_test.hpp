@@ -25,13 +25,15 @@
 namespace polydem::edmd {
 
 struct JammingTestResult {
-  bool jammed = false;
+  JammingVerdict outcome = JammingVerdict::NotTested;
+  bool jammed = false;  ///< outcome == Jammed
   std::string verdict;          ///< "jammed", "unjammed: opens contacts", "unjammed: floppy modes", ...
   double openingObjective = 0;  ///< optimum of LP 1 (sum of opened contact rates)
   double floppyObjective = 0;   ///< optimum of LP 2
   Index contactsOpened = 0;     ///< contacts with s_c > tolerance in the LP-1 motion
   Eigen::Matrix3Xd motion;      ///< unjamming motion (3 x N, zero for rattlers) if not jammed
   double seconds = 0.0;
+  int lps = 0;  ///< LPs solved (0: decided by counting or the certificate; the optima above are then 0)
 };
 
 /// The randomised load test of seed 001 (eq. 4.10, :4522-4569; Algorithm 13 without its rattler LP):
@@ -52,7 +54,7 @@ struct LoadTestOptions {
   double gapTolerance = 0.05;
   double displacementLimit = 1e-3;
   double maxDisplacement = 10.0;
-  int loads = 2;
+  int loads = 2;  ///< >= 1 (ConfigError otherwise: a test without loads proves nothing)
   std::uint64_t seed = 1;
   std::vector<Index> removed;  ///< spheres taken out of the packing for the test (no variables, no constraints)
   LpSolver solver = LpSolver::Automatic;
@@ -81,7 +83,9 @@ struct LoadTestOptions {
   std::function<void(const std::string&)> progress;
 };
 struct LoadTestResult {
-  bool jammed = false;
+  /// NotTested when no LP was solved (no spheres); Unjammed also for "no backbone" (every sphere rattles).
+  JammingVerdict outcome = JammingVerdict::NotTested;
+  bool jammed = false;  ///< outcome == Jammed
   std::string verdict;
   double largestDisplacement = 0.0;  ///< in mean diameters, over all loads
   Index displaced = 0;               ///< spheres moved beyond the limit by the worst load
@@ -115,7 +119,7 @@ bool jammingTestAvailable();
 /// an optimum that counts as non-zero. Backbones larger than `simplexLimit` spheres skip the LPs: a
 /// hypostatic one is unjammed by counting; otherwise the LP-free augmented-system certificate decides
 /// (full-rank rigidity matrix and a strictly positive self-stress; sparse Cholesky, seconds at N = 10,000).
-/// Throws ConfigError if GLPK is missing or the backbone is empty.
+/// Throws ConfigError if GLPK is missing. No spheres: NotTested; every sphere a rattler: Unjammed.
 JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& box, const ContactNetwork& network,
                                         double tolerance = 1e-9, std::uint64_t seed = 1,
                                         int simplexLimit = kSimplexLimit);

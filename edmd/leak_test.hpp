@@ -15,6 +15,7 @@
 
 #include "core/box.hpp"
 #include "core/types.hpp"
+#include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
 
 namespace polydem::edmd {
@@ -49,6 +50,9 @@ struct LeakTestResult {
   double pressureChange = 0.0;  ///< last-quarter mean / first-quarter mean - 1
   double driftRatio = 1.0;      ///< last-quarter mean displacement / largest block value of the first half
   bool leaks = false;
+  /// NotTested when the test cannot apply: no spheres, nothing collided (the pressure is undefined), or
+  /// no sphere watched (every sphere a rattler: a gas keeps its pressure without being jammed).
+  JammingVerdict outcome = JammingVerdict::NotTested;
   std::string verdict;
   EventCounts counts;
   double seconds = 0.0;
@@ -56,7 +60,8 @@ struct LeakTestResult {
 
 /// Runs the test on the spheres (centres inside the box; `rattler` marks the spheres whose
 /// displacements are not watched, e.g. ContactNetwork::rattler; empty = watch all). Throws ConfigError
-/// for bad options and SimulationError from the dynamics (an overlap or a watchdog).
+/// for bad options and SimulationError from the dynamics (an overlap or a watchdog). No spheres: an empty
+/// result, NotTested.
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options);
 

@@ -60,12 +60,22 @@ TEST(PressureLeak, RattlersAreNotWatchedAndBadOptionsAreRefused) {
   options.collisionsPerParticle = 200;
   options.blocks = 4;
   options.pressureTolerance = 5e-2;
-  // Every sphere flagged: nothing is watched, the displacements stay zero.
-  const LeakTestResult none = testPressureLeak(x, r, box, std::vector<char>(r.size(), 1), options);
-  for (const LeakBlock& b : none.blocks) {
+  // All but sphere 0 flagged: only sphere 0 is watched, and relative to the watched spheres' own mean
+  // translation it does not move, so the displacements stay zero.
+  std::vector<char> allButOne(static_cast<std::size_t>(r.size()), 1);
+  allButOne[0] = 0;
+  const LeakTestResult one = testPressureLeak(x, r, box, allButOne, options);
+  ASSERT_EQ(one.blocks.size(), 4u);
+  for (const LeakBlock& b : one.blocks) {
     EXPECT_EQ(b.meanDisplacement, 0.0);
     EXPECT_EQ(b.maxSphere, -1);
   }
+  // Every sphere flagged (issue 15): nothing jammed to watch, so no verdict, and no dynamics run.
+  const LeakTestResult none = testPressureLeak(x, r, box, std::vector<char>(r.size(), 1), options);
+  EXPECT_EQ(none.outcome, JammingVerdict::NotTested);
+  EXPECT_FALSE(none.leaks);
+  EXPECT_TRUE(none.blocks.empty());
+  EXPECT_EQ(none.verdict.find("(jammed)"), std::string::npos) << none.verdict;
   EXPECT_THROW(testPressureLeak(x, r, box, std::vector<char>(3, 0), options), ConfigError);
   LeakTestOptions bad = options;
   bad.blocks = 2;
@@ -76,6 +86,30 @@ TEST(PressureLeak, RattlersAreNotWatchedAndBadOptionsAreRefused) {
   bad = options;
   bad.driftFactor = 1.0;
   EXPECT_THROW(testPressureLeak(x, r, box, {}, bad), ConfigError);
+}
+
+TEST(PressureLeak, NoSpheresOrOneSphereIsNotTested) {
+  // Issue 15: no collisions means no pressure; the test says so instead of printing nan or "jammed".
+  LeakTestOptions options;
+  options.collisionsPerParticle = 100;
+  options.blocks = 4;
+  const Box box = Box::cubic(10.0, Boundary::Periodic);
+  const LeakTestResult empty = testPressureLeak(Eigen::Matrix3Xd(3, 0), Eigen::VectorXd(0), box, {}, options);
+  EXPECT_EQ(empty.outcome, JammingVerdict::NotTested);
+  EXPECT_NE(empty.verdict.find("not tested"), std::string::npos);
+  Eigen::Matrix3Xd x(3, 1);
+  x << 5, 5, 5;
+  const LeakTestResult single = testPressureLeak(x, Eigen::VectorXd::Constant(1, 1.0), box, {}, options);
+  EXPECT_EQ(single.outcome, JammingVerdict::NotTested);
+  EXPECT_FALSE(single.leaks);
+  EXPECT_EQ(single.counts.collisions, 0);
+  // A jammed FCC crystal has a verdict, and the verdict type says which.
+  Eigen::Matrix3Xd fx;
+  Eigen::VectorXd fr;
+  const Box fcc = lattice(true, 3, 1e-9, fx, fr);
+  options.pressureTolerance = 5e-2;
+  const LeakTestResult jammed = testPressureLeak(fx, fr, fcc, {}, options);
+  EXPECT_EQ(jammed.outcome, JammingVerdict::Jammed) << jammed.verdict;
 }
 
 }  // namespace
