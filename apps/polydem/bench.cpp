@@ -1010,8 +1010,13 @@ Runner addBench(CLI::App& app) {
   cmd->add_option("--repeat", opt->repeat, "timed repetitions per case (median and spread reported)")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  cmd->add_option("-n,--count", opt->count, "particles per scene (0: the suite's default)")
+  cmd->add_option("-n,--count", opt->count, "particles per scene, >= 2 (0: the suite's default)")
       ->check(CLI::Range(Index(0), std::numeric_limits<Index>::max()))
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return text == "1" ? "1 particle: a broad-phase benchmark needs at least 2 (0: the suite's default)" : "";
+          },
+          "0 or >= 2"))
       ->capture_default_str();
   cmd->add_option("--counts", opt->counts, "N values of the trel suite, e.g. 10000,100000")
       ->delimiter(',')

@@ -50,8 +50,13 @@ std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, con
     const auto psd = broadphase::CostModelPsd::sample(radii, box.volume(), opt.skin);
     const double K = broadphase::modelCostRatio();
     config.cellSizes = broadphase::optimalCellSizes(psd, opt.levels, config.mode, K);
-    // Collapsed (duplicate) sizes are empty levels: drop them, the grid wants strictly increasing sizes.
-    config.cellSizes.erase(std::unique(config.cellSizes.begin(), config.cellSizes.end()), config.cellSizes.end());
+    // Collapsed sizes (equal, or out of order by a rounding error when the radii span no range, e.g. two
+    // equal spheres) are empty levels: keep only sizes strictly above the previous one.
+    std::vector<double> increasing;
+    for (double size : config.cellSizes) {
+      if (increasing.empty() || size > increasing.back()) increasing.push_back(size);
+    }
+    config.cellSizes = std::move(increasing);
     config.origin = fmt::format("--levels {}: optimal sizes of the cost model (K = {:.3g}), predicted T/N = {:.3g}",
                                 opt.levels, K, broadphase::costPerParticle(psd, config.cellSizes, config.mode, K));
   }

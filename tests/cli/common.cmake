@@ -5,6 +5,7 @@
 file(WRITE ${POLYDEM_CLI_WORK}/common_n0.txt "0 10 10 10\n")
 file(WRITE ${POLYDEM_CLI_WORK}/common_n1.txt "1 10 10 10\n5 5 5 1\n")
 file(WRITE ${POLYDEM_CLI_WORK}/common_n2.txt "# boundaries: wall wall wall\n2 10 10 10\n3 5 5 1\n6 5 5 1.5\n")
+file(WRITE ${POLYDEM_CLI_WORK}/common_n2_equal.txt "2 10 10 10\n3 5 5 1.5\n7 5 5 1.5\n")
 file(MAKE_DIRECTORY ${POLYDEM_CLI_WORK}/common_existing_dir)
 file(WRITE ${POLYDEM_CLI_WORK}/common_a_file "not a directory\n")
 set(_bench --repeat 1 --out common_bench_report)
@@ -34,6 +35,21 @@ foreach(n 0 1 2)
   polydem_cli_test(NAME common_pairs_linked_cell_n${n} COMMAND pairs common_n${n}.txt --repeat 1
                    --broadphase linked-cell EXIT 0 PASS "candidate pairs: 0")
 endforeach()
+# Every backend on N = 0, 1, 2, and the hand-set hgrid levels (the cost model's sizes collapse for equal radii).
+foreach(backend brute hgrid-td hgrid-bu delaunay sap cgal-box)
+  foreach(n 0 1 2)
+    polydem_cli_test(NAME common_pairs_${backend}_n${n} COMMAND pairs common_n${n}.txt --repeat 1 --broadphase ${backend}
+                     EXIT 0 PASS "candidate pairs: 0")
+  endforeach()
+endforeach()
+polydem_cli_test(NAME common_pairs_levels_n1 COMMAND pairs common_n1.txt --repeat 1 --broadphase hgrid-td --levels 2
+                 EXIT 0 PASS "candidate pairs: 0")
+polydem_cli_test(NAME common_pairs_levels_n2 COMMAND pairs common_n2.txt --repeat 1 --broadphase hgrid-td --levels 2
+                 EXIT 0 PASS "candidate pairs: 0")
+polydem_cli_test(NAME common_pairs_levels_n0 COMMAND pairs common_n0.txt --repeat 1 --broadphase hgrid-td --levels 2
+                 EXIT 2 PASS "cost model needs at least one radius")
+polydem_cli_test(NAME common_pairs_levels_n2_equal_radii COMMAND pairs common_n2_equal.txt --repeat 1
+                 --broadphase hgrid-bu --levels 3 EXIT 0 PASS "candidate pairs: 0")
 polydem_cli_test(NAME common_predict_n0 COMMAND predict -i common_n0.txt EXIT 2
                  PASS "common_n0.txt: holds no particles")
 polydem_cli_test(NAME common_predict_n1 COMMAND predict -i common_n1.txt EXIT 0 PASS "radii of common_n1.txt \\(1 particles\\)")
@@ -86,6 +102,7 @@ polydem_cli_test(NAME common_example_omega_below_one COMMAND example --omega 0.5
 polydem_cli_test(NAME common_example_repeat_negative COMMAND example --repeat -1 EXIT 2 PASS "--repeat")
 polydem_cli_test(NAME common_bench_repeat_negative COMMAND bench quick --repeat -1 EXIT 2 PASS "--repeat")
 polydem_cli_test(NAME common_bench_phi_one COMMAND bench quick --phi 1 EXIT 2 PASS "--phi")
+polydem_cli_test(NAME common_bench_count_one COMMAND bench backends -n 1 EXIT 2 PASS "--count.*needs at least 2")
 polydem_cli_test(NAME common_bench_count_negative COMMAND bench quick -n -3 EXIT 2 PASS "--count")
 polydem_cli_test(NAME common_bench_counts_garbage COMMAND bench trel --counts 1000,20x EXIT 2 PASS "--counts")
 common_reject(NAME common_bench_equilibrate_nan PASS "--equilibrate" COMMAND bench trel --equilibrate nan)
