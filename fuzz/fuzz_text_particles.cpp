@@ -11,8 +11,9 @@
 namespace {
 
 bool bitEqual(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  // memcmp must not see the null buffer of an empty matrix.
   return a.rows() == b.rows() && a.cols() == b.cols() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0);
 }
 
 bool sameOptional(const std::optional<Eigen::Matrix3Xd>& a, const std::optional<Eigen::Matrix3Xd>& b) {
