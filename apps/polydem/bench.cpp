@@ -1082,7 +1082,7 @@ Runner addBench(CLI::App& app) {
     if (suite == "optimiser" || suite == "full") status |= runOptimiser(*opt, markdown);
     if (suite == "scaling" || suite == "full") status |= runScaling(*opt, markdown);
     markdown += fmt::format("Total run time: {:.1f} s\n", clock.seconds());
-    std::ofstream(std::filesystem::path(opt->out) / "README.md") << markdown;
+    io::writeFileAtomically(std::filesystem::path(opt->out) / "README.md", markdown);
     fmt::print("report written to {}/README.md ({:.1f} s)\n", opt->out, clock.seconds());
     return status;
   };
