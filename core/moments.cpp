@@ -43,8 +43,11 @@ std::string Moments::describe() const {
   std::string s = fmt::format("<a> {:.6g}  <a^2> {:.6g}  <a^3> {:.6g}  <a^4> {:.6g}  <a^5> {:.6g}\n", raw[1], raw[2],
                               raw[3], raw[4], raw[5]);
   s += fmt::format("M_k (k = 2..5) {:.6g} {:.6g} {:.6g} {:.6g}\n", scaled[2], scaled[3], scaled[4], scaled[5]);
-  s += fmt::format("M^c_k (k = 2..5) {:.6g} {:.6g} {:.6g} {:.6g}  kurtosis beta2 {:.6g}\n", central[2], central[3],
-                   central[4], central[5], kurtosis);
+  // Issue 15: no nan in a report; the kurtosis of a monodisperse sample is 0/0.
+  const std::string beta2 = std::isnan(kurtosis) ? std::string("undefined (monodisperse: zero variance)")
+                                                 : fmt::format("{:.6g}", kurtosis);
+  s += fmt::format("M^c_k (k = 2..5) {:.6g} {:.6g} {:.6g} {:.6g}  kurtosis beta2 {}\n", central[2], central[3],
+                   central[4], central[5], beta2);
   s += fmt::format("D10 {:.6g}  D20 {:.6g}  D32 {:.6g}  D43 {:.6g}\n", diameter(1, 0), diameter(2, 0), diameter(3, 2),
                    diameter(4, 3));
   s += fmt::format("O1 {:.6g}  O2 {:.6g}  delta {:.6g}  A {:.6g}", o1, o2, delta, a);

@@ -113,6 +113,21 @@ class Bi final : public SizeDistribution {
     return 0.0;
   }
   double quantile(double q) const override { return q <= 1.0 - nLarge_ ? rs_ : rb_; }
+  std::int64_t smallestRepresentativeCount() const override {
+    // sampleSystematic gives llround(N n_L) spheres to the large species and the rest to the small one:
+    // each species of positive fraction needs at least one. Start from the estimate N n >= 1/2 and step
+    // to the exact boundary of the rounding (a few steps at most).
+    const auto represents = [this](double n) {
+      const double large = std::round(n * nLarge_);
+      return (nLarge_ == 0.0 || large >= 1.0) && (nLarge_ == 1.0 || n - large >= 1.0);
+    };
+    const double rare = std::min(nLarge_ > 0.0 ? nLarge_ : 1.0, nLarge_ < 1.0 ? 1.0 - nLarge_ : 1.0);
+    double n = std::max(1.0, std::ceil(0.5 / rare));
+    if (n > 9.0e18) return std::numeric_limits<std::int64_t>::max();
+    while (n > 1.0 && represents(n - 1.0)) n -= 1.0;
+    while (!represents(n)) n += 1.0;
+    return static_cast<std::int64_t>(n);
+  }
   double partialMoment(int k, double a, double b) const override {
     double sum = 0.0;
     if (a < rs_ && rs_ <= b) sum += (1.0 - nLarge_) * std::pow(rs_, k);
@@ -313,6 +328,17 @@ void SizeDistribution::sampleSystematic(Index count, double u, std::vector<doubl
 
 std::vector<double> SizeDistribution::sample(Index count, Sampling sampling, std::uint64_t seed) const {
   if (count < 0) throw ConfigError(fmt::format("sample count must be >= 0, got {}", count));
+  const std::int64_t smallest = smallestRepresentativeCount();
+  if (count > 0 && count < smallest) {
+    if (smallest > std::numeric_limits<Index>::max()) {
+      throw ConfigError(fmt::format("{}: no particle count up to {} can represent it (a species would get no sphere): "
+                                    "lower the size ratio or raise the fraction of the rare species",
+                                    describe(), std::numeric_limits<Index>::max()));
+    }
+    throw ConfigError(fmt::format("{}: {} particles cannot represent it (a species would get no sphere); the "
+                                  "smallest count that works is N = {}",
+                                  describe(), count, smallest));
+  }
   // Both modes draw from std::mt19937_64(seed), one uniform per draw from its top 53 bits: Systematic
   // uses the first draw as the common offset u, Random uses draw i for radius i.
   std::mt19937_64 rng(seed);
@@ -324,6 +350,17 @@ std::vector<double> SizeDistribution::sample(Index count, Sampling sampling, std
   constexpr double kLowest = std::numeric_limits<double>::denorm_min();
   radii.resize(static_cast<std::size_t>(count));
   for (double& r : radii) r = quantile(std::max(uniform01(rng), kLowest));
+  if (count > 0 && smallest > 0) {
+    // Discrete: every species of positive fraction must appear (a random draw may miss a rare one).
+    const double lo = minRadius(), hi = maxRadius();
+    const bool hasLo = std::find(radii.begin(), radii.end(), lo) != radii.end();
+    const bool hasHi = std::find(radii.begin(), radii.end(), hi) != radii.end();
+    if (!hasLo || !hasHi) {
+      throw ConfigError(fmt::format("{}: the random draw of {} particles (seed {}) holds no sphere of radius {:g}; "
+                                    "use systematic sampling (exact counts from N = {}) or more particles",
+                                    describe(), count, seed, hasLo ? hi : lo, smallest));
+    }
+  }
   return radii;
 }
 

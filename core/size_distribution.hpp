@@ -58,10 +58,18 @@ class SizeDistribution {
   /// Raw moment <r^k>, analytic.
   double moment(int k) const;
 
+  /// The smallest N whose systematic sample holds every species of a discrete distribution (bi: each
+  /// species with a positive number fraction n_k gets round(N n_k) >= 1 spheres); 0 when any N works
+  /// (continuous families, mono). May exceed the largest Index: then no N can represent it.
+  virtual std::int64_t smallestRepresentativeCount() const { return 0; }
+
   /// N radii. Systematic sampling uses one uniform offset drawn from `seed`; Random uses N.
   /// Uniforms come from std::mt19937_64(seed), u = (draw >> 11) / 2^53 in [0, 1): Systematic takes the first
   /// as u and returns r_i = quantile((i + u) / N) in ascending order (bi and mono: exactly round(N n_k) of
   /// each radius); Random returns quantile(u_i) in draw order. Unbounded families still give finite radii.
+  /// Throws ConfigError, naming the smallest N that works, when 0 < N < smallestRepresentativeCount()
+  /// (e.g. size ratio 1000 with so few spheres that no large one is drawn), and for Random sampling when a
+  /// species of positive fraction is absent from the draw.
   std::vector<double> sample(Index count, Sampling sampling, std::uint64_t seed) const;
 
  protected:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install polydem's build and run dependencies from Debian packages. Idempotent: skips apt when
-# everything is already installed. Needs root (or sudo) on Debian 12.
+# everything is already installed. Needs root (or sudo) on Debian 12. clang and libfuzzer-14-dev are for
+# scripts/fuzz.sh only (the default build uses g++).
 set -euo pipefail
 
 packages=(
@@ -9,6 +10,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  clang libfuzzer-14-dev
 )
 
 missing=()

@@ -32,6 +32,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "apps/polydem/validators.hpp"
 #include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
@@ -39,6 +40,7 @@
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/io/particle_file.hpp"
+#include "core/io/safe_output.hpp"
 #include "core/morton.hpp"
 #include "edmd/compression.hpp"
 #include "integrators/dem_simulation.hpp"
@@ -189,9 +191,32 @@ BenchScene makeBenchScene(const BenchOptions& opt, const DistributionSpec& spec,
   throw ConfigError(fmt::format("could not place {} at any packing fraction", scene.label));
 }
 
-/// A particle file benchmarked as it is (Morton-sorted like every scene).
+/// The files the suites write into --out (checked before any computation).
+constexpr const char* kReportFiles[] = {"README.md",      "backends.csv", "backends.gp",  "backends.png",
+                                        "backends_matrix.dat", "levels.csv", "levels.gp", "levels.png",
+                                        "model.csv",      "model.gp",     "model.png",    "optimiser.csv",
+                                        "scaling.csv",    "trel.csv",     "trel.gp",      "trel.png"};
+
+/// Create the directory `dir` (and its parents) for output; ConfigError naming `what` if that fails or
+/// `dir` is an existing file.
+void prepareOutputDirectory(const std::filesystem::path& dir, std::string_view what) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) {
+    throw ConfigError(fmt::format("{} '{}': exists and is not a directory", what, dir.string()));
+  }
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw ConfigError(fmt::format("{} '{}': cannot create the directory: {}", what, dir.string(), ec.message()));
+  io::checkOutputPath(dir / "README.md", what);
+}
+
+/// A particle file benchmarked as it is (Morton-sorted like every scene). A benchmark of fewer than two
+/// particles has no pair to find and no time per particle worth reporting: refused.
 BenchScene sceneFromFile(const std::string& file) {
   const io::ParticleData data = io::readParticles(file);
+  if (data.count() < 2) {
+    throw InputError(fmt::format("{}: {} particle{}: a broad-phase benchmark needs at least 2", file, data.count(),
+                                 data.count() == 1 ? "" : "s"));
+  }
   BenchScene scene;
   scene.label = std::filesystem::path(file).filename().string();
   scene.config.box = data.box;
@@ -983,12 +1008,27 @@ Runner addBench(CLI::App& app) {
       ->check(CLI::IsMember({"quick", "levels", "backends", "optimiser", "scaling", "trel", "model", "paper", "full"}));
   cmd->add_option("--out", opt->out, "report directory")->capture_default_str();
   cmd->add_option("--repeat", opt->repeat, "timed repetitions per case (median and spread reported)")
+      ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
-  cmd->add_option("-n,--count", opt->count, "particles per scene (0: the suite's default)")->capture_default_str();
-  cmd->add_option("--counts", opt->counts, "N values of the trel suite, e.g. 10000,100000")->delimiter(',');
-  cmd->add_option("--phi", opt->packing, "packing fraction (0: the suite's default)")->capture_default_str();
-  cmd->add_option("--max-levels", opt->maxLevels, "largest L in the levels suite")->capture_default_str();
+  cmd->add_option("-n,--count", opt->count, "particles per scene, >= 2 (0: the suite's default)")
+      ->check(CLI::Range(Index(0), std::numeric_limits<Index>::max()))
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            return text == "1" ? "1 particle: a broad-phase benchmark needs at least 2 (0: the suite's default)" : "";
+          },
+          "0 or >= 2"))
+      ->capture_default_str();
+  cmd->add_option("--counts", opt->counts, "N values of the trel suite, e.g. 10000,100000")
+      ->delimiter(',')
+      ->check(CLI::Range(Index(2), std::numeric_limits<Index>::max()));
+  cmd->add_option("--phi", opt->packing, "packing fraction (0: the suite's default)")
+      ->check(finiteIn(0.0, std::nextafter(1.0, 0.0)))
+      ->capture_default_str();
+  cmd->add_option("--max-levels", opt->maxLevels, "largest L in the levels suite")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   cmd->add_option("--steps", opt->steps, "DEM steps per timed round in the trel suite (0: default)")
+      ->check(CLI::Range(0, std::numeric_limits<int>::max()))
       ->capture_default_str();
   cmd->add_option("-i,--input", opt->inputs,
                   "benchmark these particle files (text or HDF5) as they are, instead of generated scenes "
@@ -1000,11 +1040,22 @@ Runner addBench(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--equilibrate", opt->equilibrate,
                   "trel: event-driven collisions per particle at fixed density applied to every state (default 20; "
-                  "quick 2)");
+                  "quick 2)")
+      ->check(finiteNonNegative());
   cmd->add_option("--cache", opt->cacheDir, "directory for compressed dense states (default: <out>/states)");
   return [opt, cmd]() {
     if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
-    std::filesystem::create_directories(opt->out);
+    if (!opt->inputs.empty() && opt->suite != "levels" && opt->suite != "backends") {
+      throw ConfigError(fmt::format("--input works with the levels and backends suites, not {}", opt->suite));
+    }
+    // Every output checked before any computation: the report directory and the cache, every file the
+    // suites write there, none of them an input.
+    std::vector<std::filesystem::path> inputs(opt->inputs.begin(), opt->inputs.end());
+    prepareOutputDirectory(opt->out, "--out");
+    for (const char* name : kReportFiles) io::checkOutputPath(std::filesystem::path(opt->out) / name, "--out", inputs);
+    prepareOutputDirectory(stateCache(*opt), opt->cacheDir.empty() ? "--out (its states/ cache)" : "--cache");
+    // Read every input once up front, so a bad second file fails before the first is benchmarked.
+    for (const std::string& file : opt->inputs) sceneFromFile(file);
     std::string markdown = fmt::format(
         "# polydem bench {}\n\n- date: {}\n- machine: {}\n- command: `polydem bench {}{}`\n\n", opt->suite, today(),
         machineDescription(), opt->suite,
@@ -1019,9 +1070,6 @@ Runner addBench(CLI::App& app) {
     Stopwatch clock;
     int status = 0;
     const std::string& suite = opt->suite;
-    if (!opt->inputs.empty() && suite != "levels" && suite != "backends") {
-      throw ConfigError(fmt::format("--input works with the levels and backends suites, not {}", suite));
-    }
     if (suite == "quick") {
       status = runBackends(*opt, markdown, true);
       status |= runRelativeTime(*opt, markdown, true);
@@ -1034,7 +1082,7 @@ Runner addBench(CLI::App& app) {
     if (suite == "optimiser" || suite == "full") status |= runOptimiser(*opt, markdown);
     if (suite == "scaling" || suite == "full") status |= runScaling(*opt, markdown);
     markdown += fmt::format("Total run time: {:.1f} s\n", clock.seconds());
-    std::ofstream(std::filesystem::path(opt->out) / "README.md") << markdown;
+    io::writeFileAtomically(std::filesystem::path(opt->out) / "README.md", markdown);
     fmt::print("report written to {}/README.md ({:.1f} s)\n", opt->out, clock.seconds());
     return status;
   };

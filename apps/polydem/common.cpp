@@ -1,29 +1,79 @@
 #include "apps/polydem/common.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
 
+#include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
+#include "core/io/attributes.hpp"
 
 namespace polydem::app {
 
 void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& fractionKind) {
   cmd.add_option("--dist", spec.kind,
                  "size distribution: mono, bi, uniform-radius (us), uniform-volume (uv), power-law, log-normal (ln)")
+      ->check(CLI::IsMember({"mono", "bi", "uniform-radius", "us", "uniform-volume", "uv", "power-law", "log-normal",
+                             "ln"}))
       ->capture_default_str();
   cmd.add_option("--rmin", spec.rmin, "smallest radius (mono: the radius; log-normal: lower cut, 0 = none)")
+      ->check(finiteNonNegative())
       ->capture_default_str();
+  // omega >= 1 except log-normal's 0 (untruncated); makeDistribution() checks the kind-specific rule.
   cmd.add_option("--omega", spec.omega, "size ratio rmax/rmin (bi: large/small; log-normal: 0 = untruncated)")
+      ->check(finiteNonNegative())
       ->capture_default_str();
-  cmd.add_option("--alpha", spec.alpha, "power-law exponent, f(r) ~ r^alpha")->capture_default_str();
-  cmd.add_option("--sigma", spec.sigma, "log-normal width")->capture_default_str();
-  cmd.add_option("--median", spec.median, "log-normal median radius a0")->capture_default_str();
-  cmd.add_option("--large-fraction", spec.largeFraction, "bi: fraction of the large species")->capture_default_str();
+  cmd.add_option("--alpha", spec.alpha, "power-law exponent, f(r) ~ r^alpha")
+      ->check(finiteIn(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()))
+      ->capture_default_str();
+  cmd.add_option("--sigma", spec.sigma, "log-normal width")->check(finitePositive())->capture_default_str();
+  cmd.add_option("--median", spec.median, "log-normal median radius a0")->check(finitePositive())->capture_default_str();
+  cmd.add_option("--large-fraction", spec.largeFraction, "bi: fraction of the large species")
+      ->check(finiteIn(0.0, 1.0))
+      ->capture_default_str();
   cmd.add_option("--fraction-kind", fractionKind, "bi: the fraction counts volume or number")
       ->check(CLI::IsMember({"volume", "number"}))
       ->capture_default_str();
+}
+
+const std::vector<std::string>& distributionOptionNames() {
+  static const std::vector<std::string> names = {"--dist",   "--rmin",   "--omega",          "--alpha",
+                                                 "--sigma",  "--median", "--large-fraction", "--fraction-kind"};
+  return names;
+}
+
+std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    const CLI::Option* option = cmd.get_option_no_throw(name);
+    if (option != nullptr && option->count() > 0) return name;
+  }
+  return {};
+}
+
+CLI::Validator finiteOpen(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& text) -> std::string {
+        const auto value = io::parseFiniteDouble(text);
+        if (!value) return fmt::format("'{}' is not a finite number", text);
+        if (!(*value > lo && *value < hi)) return fmt::format("{} is outside ({:g}, {:g})", text, lo, hi);
+        return {};
+      },
+      fmt::format("FINITE in ({:g}, {:g})", lo, hi));
+}
+
+CLI::Validator boundaryNames() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        try {
+          parseBoundaries(text);
+        } catch (const ConfigError& e) {
+          return e.what();
+        }
+        return {};
+      },
+      "periodic|walls|X,Y,Z");
 }
 
 void finishDistributionSpec(DistributionSpec& spec, const std::string& fractionKind) {

@@ -13,8 +13,21 @@
 
 namespace polydem::app {
 
-/// --dist, --rmin, --omega, --alpha, --sigma, --median, --large-fraction, --fraction-kind.
+/// --dist, --rmin, --omega, --alpha, --sigma, --median, --large-fraction, --fraction-kind, each validated
+/// (finite, in range; the option is named in the message).
 void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& fractionKind);
+
+/// Names of the options addDistributionOptions() adds, for conflict checks.
+const std::vector<std::string>& distributionOptionNames();
+
+/// The first of `names` given on the command line of `cmd`, or "" if none was.
+std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>& names);
+
+/// A finite number in the open interval (lo, hi), e.g. a packing fraction in (0, 1).
+CLI::Validator finiteOpen(double lo, double hi);
+
+/// A boundary specification parseBoundaries() accepts.
+CLI::Validator boundaryNames();
 void finishDistributionSpec(DistributionSpec& spec, const std::string& fractionKind);
 
 /// "periodic", "walls", or three comma-separated entries of periodic|wall. Throws ConfigError.

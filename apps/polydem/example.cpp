@@ -1,13 +1,19 @@
 // polydem example: the built-in demonstration scene. Generates a polydisperse packing, runs every
 // broad phase on it, checks they agree, and prints the timings side by side.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
 #include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "apps/polydem/validators.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
+#include "core/types.hpp"
 
 namespace polydem::app {
 
@@ -24,10 +30,16 @@ Runner addExample(CLI::App& app) {
   auto opt = std::make_shared<ExampleOptions>();
   CLI::App* cmd = app.add_subcommand(
       "example", "built-in example: uniform-volume spheres by random sequential addition, every broad phase compared");
-  cmd->add_option("-n,--count", opt->count, "number of particles")->capture_default_str();
-  cmd->add_option("--omega", opt->omega, "size ratio")->capture_default_str();
-  cmd->add_option("--phi", opt->packing, "packing fraction")->capture_default_str();
-  cmd->add_option("--repeat", opt->repeat, "timed repetitions per backend")->capture_default_str();
+  cmd->add_option("-n,--count", opt->count, "number of particles (>= 1)")
+      ->check(CLI::Range(Index(1), std::numeric_limits<Index>::max()))
+      ->capture_default_str();
+  cmd->add_option("--omega", opt->omega, "size ratio (>= 1)")
+      ->check(finiteIn(1.0, std::numeric_limits<double>::infinity()))
+      ->capture_default_str();
+  cmd->add_option("--phi", opt->packing, "packing fraction in (0, 1)")->check(finiteOpen(0.0, 1.0))->capture_default_str();
+  cmd->add_option("--repeat", opt->repeat, "timed repetitions per backend")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   return [opt]() {
     DistributionSpec spec;
     spec.kind = "uniform-volume";
@@ -40,13 +52,21 @@ Runner addExample(CLI::App& app) {
     request.packingFraction = opt->packing;
     request.boundaries = {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
     request.seed = 1;
+    const double skin = 0.1 * spec.rmin;
+    // A handful of spheres (N = 1, 2) fills a box narrower than two cut-offs, which periodic broad phases
+    // cannot image: use walls then, as `polydem bench` does.
+    double volume = 0.0;
+    for (double r : request.radii) volume += 4.0 / 3.0 * kPi * r * r * r;
+    const double rmax = *std::max_element(request.radii.begin(), request.radii.end());
+    if (std::cbrt(volume / opt->packing) < 2.0 * (2.0 * rmax + skin)) {
+      request.boundaries = {Boundary::Wall, Boundary::Wall, Boundary::Wall};
+    }
     const Configuration config = randomSequentialAddition(request);
     fmt::print("example scene: {} spheres, {}, packing fraction {}, {}\n", opt->count, dist->describe(), opt->packing,
                config.box.describe());
     fmt::print("placed by random sequential addition in {:.3f} s\n\n", clock.seconds());
 
     const SphereView spheres{config.position, config.radius};
-    const double skin = 0.1 * spec.rmin;
     std::vector<std::string> names = broadphase::backendNames();
     names.push_back("auto");
     std::vector<PairReport> reports;

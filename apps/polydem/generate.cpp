@@ -1,6 +1,7 @@
 // polydem generate: sample a size distribution, place the spheres, write a particle file.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include <fmt/format.h>
@@ -8,9 +9,12 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/equivalent_option.hpp"
+#include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
+#include "core/io/hdf5_snapshot.hpp"
 #include "core/io/particle_file.hpp"
+#include "core/io/safe_output.hpp"
 
 namespace polydem::app {
 
@@ -34,11 +38,20 @@ Runner addGenerate(CLI::App& app) {
   auto opt = std::make_shared<GenerateOptions>();
   CLI::App* cmd = app.add_subcommand("generate", "sample a size distribution, place N spheres, write a particle file");
   addDistributionOptions(*cmd, opt->dist, opt->fractionKind);
-  cmd->add_option("-n,--count", opt->count, "number of particles")->capture_default_str();
-  cmd->add_option("--phi", opt->packing, "packing fraction (sets the box volume)")->capture_default_str();
-  cmd->add_option("--boundary", opt->boundaries, "periodic, walls, or per axis e.g. periodic,periodic,wall")
+  cmd->add_option("-n,--count", opt->count, "number of particles (>= 1: the box is sized from their volume)")
+      ->check(CLI::Range(Index(1), std::numeric_limits<Index>::max()))
       ->capture_default_str();
-  cmd->add_option("--aspect", opt->aspect, "box edge ratios x,y,z")->delimiter(',')->expected(3)->capture_default_str();
+  cmd->add_option("--phi", opt->packing, "packing fraction (sets the box volume)")
+      ->check(finiteOpen(0.0, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--boundary", opt->boundaries, "periodic, walls, or per axis e.g. periodic,periodic,wall")
+      ->check(boundaryNames())
+      ->capture_default_str();
+  cmd->add_option("--aspect", opt->aspect, "box edge ratios x,y,z")
+      ->delimiter(',')
+      ->expected(3)
+      ->check(finitePositive())
+      ->capture_default_str();
   cmd->add_option("--sampling", opt->sampling, "systematic (evenly spaced quantiles) or random")
       ->check(CLI::IsMember({"systematic", "random"}))
       ->capture_default_str();
@@ -47,14 +60,18 @@ Runner addGenerate(CLI::App& app) {
                   "allowed (cost-model checks)")
       ->check(CLI::IsMember({"rsa", "random"}))
       ->capture_default_str();
-  cmd->add_option("--seed", opt->seed, "random seed")->capture_default_str();
+  cmd->add_option("--seed", opt->seed, "random seed (non-negative integer)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   addEquivalentOption(*cmd, opt->equivalent);
   cmd->add_option("-o,--output", opt->output, "output file: .h5/.hdf5 for HDF5 (+ .xmf sidecar), else plain text")
       ->required();
 
   return [opt]() {
     finishDistributionSpec(opt->dist, opt->fractionKind);
-    if (opt->count < 0) throw ConfigError(fmt::format("--count must be >= 0, got {}", opt->count));
+    if (opt->count < 1) throw ConfigError(fmt::format("--count must be >= 1, got {}", opt->count));
+    io::checkOutputPath(opt->output, "--output");
+    if (io::isHdf5Path(opt->output)) io::checkOutputPath(io::xdmfPath(opt->output), "--output (its XDMF sidecar)");
     const auto dist = makeDistribution(opt->dist);
     Stopwatch clock;
     const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
+#include "apps/polydem/exit_codes.hpp"
 #include "core/errors.hpp"
 #include "polydem/config.hpp"
 
@@ -31,7 +32,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version exit 0; every bad command line (unknown option, a value that fails its
+    // validator, trailing garbage) is a configuration error, exit code 2 (apps/polydem/exit_codes.hpp).
+    const int code = app.exit(e);
+    return code == 0 ? polydem::app::kExitOk : polydem::app::kExitConfigError;
   }
   try {
     for (auto& [sub, run] : runners) {

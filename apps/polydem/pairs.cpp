@@ -6,6 +6,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "apps/polydem/validators.hpp"
 #include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
@@ -49,8 +50,13 @@ std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, con
     const auto psd = broadphase::CostModelPsd::sample(radii, box.volume(), opt.skin);
     const double K = broadphase::modelCostRatio();
     config.cellSizes = broadphase::optimalCellSizes(psd, opt.levels, config.mode, K);
-    // Collapsed (duplicate) sizes are empty levels: drop them, the grid wants strictly increasing sizes.
-    config.cellSizes.erase(std::unique(config.cellSizes.begin(), config.cellSizes.end()), config.cellSizes.end());
+    // Collapsed sizes (equal, or out of order by a rounding error when the radii span no range, e.g. two
+    // equal spheres) are empty levels: keep only sizes strictly above the previous one.
+    std::vector<double> increasing;
+    for (double size : config.cellSizes) {
+      if (increasing.empty() || size > increasing.back()) increasing.push_back(size);
+    }
+    config.cellSizes = std::move(increasing);
     config.origin = fmt::format("--levels {}: optimal sizes of the cost model (K = {:.3g}), predicted T/N = {:.3g}",
                                 opt.levels, K, broadphase::costPerParticle(psd, config.cellSizes, config.mode, K));
   }
@@ -72,17 +78,33 @@ Runner addPairs(CLI::App& app) {
   cmd->add_option("--broadphase", opt->backend,
                   "backend: brute, linked-cell, hgrid-td, hgrid-bu, delaunay, sap, cgal-box, auto")
       ->capture_default_str();
-  cmd->add_option("--skin", opt->skin, "pairs count when the gap between surfaces is <= skin")->capture_default_str();
-  cmd->add_option("--repeat", opt->repeat, "timed repetitions (the median is reported)")->capture_default_str();
+  cmd->add_option("--skin", opt->skin, "pairs count when the gap between surfaces is <= skin")
+      ->check(finiteNonNegative())
+      ->capture_default_str();
+  cmd->add_option("--repeat", opt->repeat, "timed repetitions (the median is reported)")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   cmd->add_option("--boundary", opt->boundaries,
                   "boundaries for text files without a '# boundaries:' line: periodic, walls, or per axis")
+      ->check(boundaryNames())
       ->capture_default_str();
-  cmd->add_option("--levels", opt->levels, "hgrid-td/-bu: number of levels (sizes from the cost model unless given)");
+  cmd->add_option("--levels", opt->levels, "hgrid-td/-bu: number of levels (sizes from the cost model unless given)")
+      ->check(CLI::Range(1, 64));
   cmd->add_option("--cell-sizes", opt->cellSizes, "hgrid-td/-bu: cell edges s_1 < ... < s_L, comma-separated")
-      ->delimiter(',');
-  return [opt]() {
+      ->delimiter(',')
+      ->check(finitePositive());
+  return [opt, cmd]() {
     if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
-    const io::ParticleData data = io::readParticles(opt->file, parseBoundaries(opt->boundaries));
+    const std::array<Boundary, 3> boundaries = parseBoundaries(opt->boundaries);
+    const io::ParticleData data = io::readParticles(opt->file, boundaries);
+    // --boundary is the default for text files without their own: never silently overridden by the file.
+    const bool differ = data.box.boundary(0) != boundaries[0] || data.box.boundary(1) != boundaries[1] ||
+                        data.box.boundary(2) != boundaries[2];
+    if (cmd->count("--boundary") > 0 && differ) {
+      throw ConfigError(fmt::format("--boundary {} conflicts with the boundaries stored in {} ({}): drop --boundary "
+                                    "or edit the file",
+                                    opt->boundaries, opt->file, data.box.describe()));
+    }
     fmt::print("file: {} ({} particles, box {})\n", opt->file, data.count(), data.box.describe());
     const SphereView spheres{data.position, data.radius};
     auto backend = makeBackend(*opt, spheres, data.box);

@@ -4,6 +4,7 @@
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
+#include "apps/polydem/validators.hpp"
 #include "core/equivalent_mixture.hpp"
 #include "core/errors.hpp"
 #include "core/io/particle_file.hpp"
@@ -38,13 +39,23 @@ Runner addPredict(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "predict", "moments, equivalent bi/tridisperse mixtures, fluid EOS and jamming-density fits of a distribution");
   addDistributionOptions(*cmd, opt->dist, opt->fractionKind);
-  cmd->add_option("--phi", opt->phi, "packing fractions at which to evaluate the equations of state")
+  cmd->add_option("--phi", opt->phi, "packing fractions at which to evaluate the equations of state, in [0, 1)")
       ->delimiter(',')
+      ->check(finiteIn(0.0, 1.0))
       ->capture_default_str();
-  cmd->add_option("-i,--input", opt->input, "use the radii of this particle file instead of --dist");
+  cmd->add_option("-i,--input", opt->input,
+                  "use the radii of this particle file instead of a distribution (no --dist or its options)");
 
-  return [opt]() {
+  return [opt, cmd]() {
     finishDistributionSpec(opt->dist, opt->fractionKind);
+    if (!opt->input.empty()) {
+      const std::string given = firstGivenOption(*cmd, distributionOptionNames());
+      if (!given.empty()) {
+        throw ConfigError(fmt::format("{} conflicts with --input {}: the file's own radii define the distribution; "
+                                      "give either --input or the distribution options",
+                                      given, opt->input));
+      }
+    }
     for (double phi : opt->phi) {
       if (!(phi >= 0.0 && phi < 1.0))
         throw ConfigError(fmt::format("--phi: packing fraction {} is not in [0, 1)", phi));
@@ -52,6 +63,9 @@ Runner addPredict(CLI::App& app) {
     Moments m;
     if (!opt->input.empty()) {
       const io::ParticleData data = io::readParticles(opt->input);
+      if (data.count() == 0) {
+        throw InputError(fmt::format("{}: holds no particles: there are no radii to take moments of", opt->input));
+      }
       m = momentsOfSample(std::span<const double>(data.radius.data(), static_cast<std::size_t>(data.radius.size())));
       fmt::print("radii of {} ({} particles)\n", opt->input, data.radius.size());
     } else {

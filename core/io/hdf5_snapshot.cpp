@@ -24,6 +24,7 @@
 #include <fmt/ranges.h>  // fmt::join
 
 #include "core/errors.hpp"
+#include "core/io/safe_output.hpp"
 
 #include "core/io/hdf5_handle.hpp"
 
@@ -98,8 +99,20 @@ std::string datasetLabel(std::string_view path) { return fmt::format("dataset {}
 // ---------------------------------------------------------------------------------------------------
 // Writing
 
+/// An object creation property list with modification times off: HDF5 otherwise stamps every group and
+/// dataset with the wall clock, and the same data written twice would differ in its bytes.
+Handle untimedCreation(const Context& ctx, hid_t propertyClass, std::string_view object) {
+  Handle plist(H5Pcreate(propertyClass), H5Pclose);
+  if (!plist.valid() || H5Pset_obj_track_times(plist.get(), 0) < 0) {
+    ctx.failHdf5(object, "cannot create a property list");
+  }
+  return plist;
+}
+
 Handle createGroup(const Context& ctx, hid_t file, const char* path) {
-  Handle group(H5Gcreate2(file, path, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  const std::string label = fmt::format("group {}", path);
+  const Handle gcpl = untimedCreation(ctx, H5P_GROUP_CREATE, label);
+  Handle group(H5Gcreate2(file, path, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
   if (!group.valid()) ctx.failHdf5(fmt::format("group {}", path), "cannot create");
   return group;
 }
@@ -110,7 +123,8 @@ void writeDataset(const Context& ctx, hid_t file, const char* path, hid_t fileTy
   std::vector<hsize_t> shape(dims);
   Handle space(H5Screate_simple(static_cast<int>(shape.size()), shape.data(), nullptr), H5Sclose);
   if (!space.valid()) ctx.failHdf5(label, "cannot create dataspace");
-  Handle dataset(H5Dcreate2(file, path, fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  const Handle dcpl = untimedCreation(ctx, H5P_DATASET_CREATE, label);
+  Handle dataset(H5Dcreate2(file, path, fileType, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
   if (!dataset.valid()) ctx.failHdf5(label, "cannot create");
   hsize_t total = 1;
   for (hsize_t d : shape) total *= d;
@@ -159,8 +173,9 @@ std::string xmlEscape(std::string_view text) {
   return out;
 }
 
-void writeXdmf(const std::filesystem::path& file, const ParticleData& data) {
-  const std::filesystem::path sidecar = xdmfPath(file);
+/// The XDMF sidecar of `file`, written to `sidecar` (a temporary that is renamed afterwards).
+void writeXdmf(const std::filesystem::path& file, const std::filesystem::path& sidecar, const ParticleData& data) {
+  const std::string sidecarName = xdmfPath(file).string();
   // Relative reference: the pair stays valid when the directory is moved or copied.
   const std::string h5 = xmlEscape(file.filename().string());
   const Index n = data.count();
@@ -197,15 +212,20 @@ void writeXdmf(const std::filesystem::path& file, const ParticleData& data) {
     xml += item(vector, "Float", 8, "/particles/velocity");
     xml += "      </Attribute>\n";
   }
+  if (data.angularVelocity) {
+    xml += "      <Attribute Name=\"angular_velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
+    xml += item(vector, "Float", 8, "/particles/angular_velocity");
+    xml += "      </Attribute>\n";
+  }
   xml += "    </Grid>\n";
   xml += "  </Domain>\n";
   xml += "</Xdmf>\n";
 
   std::ofstream out(sidecar, std::ios::binary | std::ios::trunc);
-  if (!out) throw InputError(fmt::format("{}: cannot open for writing: {}", sidecar.string(), std::strerror(errno)));
+  if (!out) throw InputError(fmt::format("{}: cannot open for writing: {}", sidecarName, std::strerror(errno)));
   out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
   out.close();
-  if (!out) throw InputError(fmt::format("{}: write failed: {}", sidecar.string(), std::strerror(errno)));
+  if (!out) throw InputError(fmt::format("{}: write failed: {}", sidecarName, std::strerror(errno)));
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -433,6 +453,15 @@ void validate(const Context& ctx, ParticleData& data) {
       }
     }
   }
+  if (data.angularVelocity) {
+    const std::string label = datasetLabel("/particles/angular_velocity");
+    for (Index i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const double w = (*data.angularVelocity)(k, i);
+        if (!std::isfinite(w)) ctx.fail(label, fmt::format("{}: w{} = {} is not finite", particle(i), kAxis[k], w));
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -453,7 +482,12 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
 
   const Context ctx(file);
   const QuietErrors quiet;
-  Handle h5(H5Fcreate(ctx.name().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+  // Both files go to temporaries beside their final names and are renamed only once complete, so an
+  // interrupted or failed write leaves the previous snapshot (or nothing) under the final names.
+  AtomicFile atomicH5(file);
+  AtomicFile atomicXdmf(xdmfPath(file));
+  const Handle fcpl = untimedCreation(ctx, H5P_FILE_CREATE, "the root group");
+  Handle h5(H5Fcreate(atomicH5.temporary().c_str(), H5F_ACC_TRUNC, fcpl.get(), H5P_DEFAULT), H5Fclose);
   if (!h5.valid()) ctx.fail(fmt::format("cannot create HDF5 file{}", hdf5Detail()));
   const hid_t f = h5.get();
   const auto n = static_cast<hsize_t>(data.count());
@@ -462,6 +496,10 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
     writeDataset(ctx, f, "/particles/position", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, data.position.data());
     if (data.velocity) {
       writeDataset(ctx, f, "/particles/velocity", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3}, data.velocity->data());
+    }
+    if (data.angularVelocity) {
+      writeDataset(ctx, f, "/particles/angular_velocity", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, 3},
+                   data.angularVelocity->data());
     }
     writeDataset(ctx, f, "/particles/radius", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, data.radius.data());
     static_assert(sizeof(Index) == 4, "/particles/id is stored as int32");
@@ -483,7 +521,9 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
   writeDoubleAttribute(ctx, f, "time", data.time);
   if (!h5.close()) ctx.fail(fmt::format("cannot close (flush) HDF5 file{}", hdf5Detail()));
 
-  writeXdmf(file, data);
+  writeXdmf(file, atomicXdmf.temporary(), data);
+  atomicH5.commit();
+  atomicXdmf.commit();
 }
 
 ParticleData readSnapshot(const std::filesystem::path& file) {
@@ -541,6 +581,9 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
   data.position = readRows(ctx, f, "/particles/position", n);
   data.radius = readDoubles(ctx, f, "/particles/radius", n);
   if (linkExists(f, "/particles/velocity")) data.velocity = readRows(ctx, f, "/particles/velocity", n);
+  if (linkExists(f, "/particles/angular_velocity")) {
+    data.angularVelocity = readRows(ctx, f, "/particles/angular_velocity", n);
+  }
   {
     const std::vector<long long> ids = readIntegers(ctx, f, "/particles/id", n);
     data.id.resize(ids.size());

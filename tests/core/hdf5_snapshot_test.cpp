@@ -16,7 +16,10 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <csignal>
 
 #include "core/errors.hpp"
 
@@ -187,6 +190,95 @@ TEST_F(SnapshotTest, WriteIntoMissingDirectoryNamesFile) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(file.string() + ": cannot create HDF5 file"), std::string::npos) << e.what();
   }
+}
+
+// Issue 15: snapshots carry angular velocities (restart with friction is faithful).
+TEST_F(SnapshotTest, AngularVelocitiesRoundTrip) {
+  ParticleData data = makeData(40, true, 21);
+  data.angularVelocity = Eigen::Matrix3Xd::Random(3, 40) * 1e3;
+  const fs::path file = dir_ / "spin.h5";
+  writeSnapshot(file, data);
+  const ParticleData back = readSnapshot(file);
+  ASSERT_TRUE(back.angularVelocity.has_value());
+  EXPECT_TRUE(bitEqual(*back.angularVelocity, *data.angularVelocity));
+  const std::string xml = slurp(xdmfPath(file));
+  EXPECT_NE(xml.find("Name=\"angular_velocity\" AttributeType=\"Vector\""), std::string::npos) << xml;
+  EXPECT_NE(xml.find(">spin.h5:/particles/angular_velocity<"), std::string::npos) << xml;
+  // Without them the dataset is absent and reads back as absent.
+  writeSnapshot(dir_ / "still.h5", makeData(3, true, 22));
+  EXPECT_FALSE(readSnapshot(dir_ / "still.h5").angularVelocity.has_value());
+}
+
+TEST_F(SnapshotTest, NonFiniteAngularVelocityIsRefusedOnRead) {
+  ParticleData data = makeData(2, false, 23);
+  data.angularVelocity = Eigen::Matrix3Xd::Zero(3, 2);
+  (*data.angularVelocity)(1, 1) = std::numeric_limits<double>::quiet_NaN();
+  writeSnapshot(dir_ / "bad.h5", data);
+  try {
+    readSnapshot(dir_ / "bad.h5");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("dataset /particles/angular_velocity: particle 1"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST_F(SnapshotTest, OneParticleRoundTrips) {
+  ParticleData data = makeData(1, true, 24);
+  data.angularVelocity = Eigen::Matrix3Xd::Constant(3, 1, 0.5);
+  writeSnapshot(dir_ / "one.h5", data);
+  const ParticleData back = readSnapshot(dir_ / "one.h5");
+  EXPECT_EQ(back.count(), 1);
+  EXPECT_EQ(back.id, data.id);
+  EXPECT_TRUE(bitEqual(*back.angularVelocity, *data.angularVelocity));
+}
+
+// Issue 15: the same data written twice gives the same bytes (no object time stamps), so resumed runs
+// can be compared with cmp.
+TEST_F(SnapshotTest, SameDataGivesSameBytes) {
+  ParticleData data = makeData(50, true, 25);
+  data.angularVelocity = Eigen::Matrix3Xd::Random(3, 50);
+  data.attributes = {{"reduced_pressure", "1e12"}, {"seed", "3"}};
+  writeSnapshot(dir_ / "a.h5", data);
+  const std::string first = slurp(dir_ / "a.h5");
+  sleep(1);  // HDF5 time stamps have a resolution of one second
+  writeSnapshot(dir_ / "b.h5", data);
+  writeSnapshot(dir_ / "a.h5", data);  // replacing an existing file too
+  EXPECT_EQ(first, slurp(dir_ / "b.h5"));
+  EXPECT_EQ(first, slurp(dir_ / "a.h5"));
+  EXPECT_FALSE(first.empty());
+}
+
+std::vector<std::string> listDirectory(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// Issue 15: a snapshot write that fails part way (here: a file-size limit, as on a full disk) leaves the
+// previous snapshot and its sidecar intact and no temporary behind.
+TEST_F(SnapshotTest, FailedWriteKeepsOldSnapshotAndLeavesNoTemporary) {
+  const fs::path file = dir_ / "state.h5";
+  writeSnapshot(file, makeData(3, false, 26));
+  const std::string oldBytes = slurp(file);
+  const std::string oldXml = slurp(xdmfPath(file));
+  const ParticleData big = makeData(20000, true, 27);  // about 1.3 MB of datasets
+  {
+    rlimit saved{};
+    getrlimit(RLIMIT_FSIZE, &saved);
+    const auto previous = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = saved;
+    limit.rlim_cur = 200000;
+    setrlimit(RLIMIT_FSIZE, &limit);
+    EXPECT_THROW(writeSnapshot(file, big), InputError);
+    setrlimit(RLIMIT_FSIZE, &saved);
+    std::signal(SIGXFSZ, previous);
+  }
+  EXPECT_EQ(slurp(file), oldBytes);
+  EXPECT_EQ(slurp(xdmfPath(file)), oldXml);
+  EXPECT_EQ(readSnapshot(file).count(), 3);
+  EXPECT_EQ(listDirectory(dir_), (std::vector<std::string>{"state.h5", "state.xmf"}));
 }
 
 // ---------------------------------------------------------------------------------------------------

@@ -11,7 +11,11 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <unistd.h>
+
+#include <csignal>
+#include <iterator>
 
 #include "core/errors.hpp"
 
@@ -117,11 +121,178 @@ TEST_F(TextFileTest, EmptyConfigurationRoundTrips) {
   EXPECT_EQ(back.box, data.box);
 }
 
-TEST_F(TextFileTest, IdsAreLineOrder) {
-  ParticleData data = randomData(5, false, 3);
-  data.id = {40, 30, 20, 10, 0};  // text files do not store ids
+// Issue 15 changed this: ids that are not 0..N-1 are now stored (an `id` column), not replaced by line order.
+TEST_F(TextFileTest, IdsThatAreNotLineOrderAreStored) {
+  ParticleData data = randomData(5, true, 3);
+  data.id = {40, 30, 20, 10, 0};
   writeText(dir_ / "ids.txt", data);
-  EXPECT_EQ(readText(dir_ / "ids.txt").id, (std::vector<Index>{0, 1, 2, 3, 4}));
+  const ParticleData back = readText(dir_ / "ids.txt");
+  EXPECT_EQ(back.id, data.id);
+  EXPECT_TRUE(bitEqual(back.position, data.position));
+  EXPECT_TRUE(bitEqual(*back.velocity, *data.velocity));
+}
+
+TEST_F(TextFileTest, LineOrderIdsWriteNoIdColumn) {
+  writeText(dir_ / "plain.txt", randomData(3, false, 3));
+  const std::string text = [&] {
+    std::ifstream in(dir_ / "plain.txt");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  EXPECT_NE(text.find("# columns: x y z r\n"), std::string::npos) << text;
+  EXPECT_EQ(readText(dir_ / "plain.txt").id, (std::vector<Index>{0, 1, 2}));
+}
+
+TEST_F(TextFileTest, IdsWithoutColumnsLineAreLineOrder) {
+  const fs::path file = write("noids.txt", "2 1 1 1\n0.5 0.5 0.5 0.1\n0.2 0.2 0.2 0.1\n");
+  EXPECT_EQ(readText(file).id, (std::vector<Index>{0, 1}));
+}
+
+TEST_F(TextFileTest, WriteRejectsDuplicateOrNegativeIds) {
+  ParticleData data = randomData(3, false, 3);
+  data.id = {5, 7, 5};
+  EXPECT_THROW(writeText(dir_ / "dup.txt", data), ConfigError);
+  data.id = {5, -1, 2};
+  EXPECT_THROW(writeText(dir_ / "neg.txt", data), ConfigError);
+  EXPECT_FALSE(fs::exists(dir_ / "dup.txt"));
+}
+
+// Issue 15: time, attributes and boundaries travel with the data in text files too.
+TEST_F(TextFileTest, MetadataRoundTrips) {
+  ParticleData data = randomData(4, false, 7);
+  data.time = 12.5000000000000018;
+  data.attributes = {
+      {"reduced_pressure", "1.0000000000004e12"},
+      {"key with spaces", "value with spaces"},
+      {"a=b", "c=d # not a comment"},
+      {"quote\"and\\backslash", "line1\nline2\r\ttab"},
+      {"control", std::string("nul\0byte\x01\x7f", 10)},
+      {"empty", ""},
+      {"padded", "  leading and trailing  "},
+      {"#hash", "#"},
+      {"utf8", "\xc3\xa9t\xc3\xa9 \xcf\x86"},
+      {"\"", "\""},
+  };
+  writeText(dir_ / "meta.txt", data);
+  const ParticleData back = readText(dir_ / "meta.txt", {Boundary::Wall, Boundary::Wall, Boundary::Wall});
+  EXPECT_EQ(back.attributes, data.attributes);
+  EXPECT_EQ(back.time, data.time);
+  EXPECT_EQ(back.box, data.box);
+  EXPECT_TRUE(bitEqual(back.position, data.position));
+}
+
+TEST_F(TextFileTest, HandWrittenMetadataIsParsed) {
+  const fs::path file = write("hand.txt",
+                              "# written by hand: comments with colons are free text\n"
+                              "# time:   -3.25\r\n"
+                              "# attribute: pressure = 1e12\n"
+                              "#attribute:   note   =   two words  \n"
+                              "# attribute: \"k k\" = \"v\\x41\\\"\"\n"
+                              "# boundaries are described below (free text: no colon after the word)\n"
+                              "1 1 1 1\n0.5 0.5 0.5 0.1\n");
+  const ParticleData back = readText(file);
+  EXPECT_EQ(back.time, -3.25);
+  EXPECT_EQ(back.attributes.at("pressure"), "1e12");
+  EXPECT_EQ(back.attributes.at("note"), "two words");
+  EXPECT_EQ(back.attributes.at("k k"), "vA\"");
+  EXPECT_EQ(back.attributes.size(), 3u);
+}
+
+// Issue 15: angular velocities are columns wx wy wz after vx vy vz (10 columns).
+TEST_F(TextFileTest, AngularVelocitiesRoundTrip) {
+  ParticleData data = randomData(30, true, 8);
+  data.angularVelocity = Eigen::Matrix3Xd::Random(3, 30) * 1e4;
+  (*data.angularVelocity)(0, 0) = -0.0;
+  writeText(dir_ / "spin.txt", data);
+  const ParticleData back = readText(dir_ / "spin.txt");
+  ASSERT_TRUE(back.angularVelocity.has_value());
+  EXPECT_TRUE(bitEqual(*back.angularVelocity, *data.angularVelocity));
+  EXPECT_TRUE(bitEqual(*back.velocity, *data.velocity));
+  // Ten columns without a `# columns:` line are read the same way.
+  const fs::path bare = write("bare10.txt", "1 1 1 1\n0.5 0.5 0.5 0.1 1 2 3 4 5 6\n");
+  const ParticleData b = readText(bare);
+  ASSERT_TRUE(b.angularVelocity.has_value());
+  EXPECT_EQ(b.angularVelocity->col(0), Eigen::Vector3d(4, 5, 6));
+  EXPECT_EQ(b.velocity->col(0), Eigen::Vector3d(1, 2, 3));
+}
+
+TEST_F(TextFileTest, AngularVelocitiesWithoutVelocitiesRoundTrip) {
+  ParticleData data = randomData(3, false, 9);
+  data.angularVelocity = Eigen::Matrix3Xd::Constant(3, 3, 2.5);
+  writeText(dir_ / "w.txt", data);
+  const ParticleData back = readText(dir_ / "w.txt");
+  EXPECT_FALSE(back.velocity.has_value());
+  ASSERT_TRUE(back.angularVelocity.has_value());
+  EXPECT_TRUE(bitEqual(*back.angularVelocity, *data.angularVelocity));
+}
+
+TEST_F(TextFileTest, OneParticleRoundTrips) {
+  ParticleData data = randomData(1, true, 10);
+  data.angularVelocity = Eigen::Matrix3Xd::Constant(3, 1, -1.0);
+  data.id = {7};
+  writeText(dir_ / "one.txt", data);
+  const ParticleData back = readText(dir_ / "one.txt");
+  EXPECT_EQ(back.count(), 1);
+  EXPECT_EQ(back.id, data.id);
+  EXPECT_TRUE(bitEqual(*back.angularVelocity, *data.angularVelocity));
+}
+
+TEST_F(TextFileTest, HeaderOnlyFileIsEmptyConfiguration) {
+  const ParticleData back = readText(write("zero.txt", "0 2 3 4\n"));
+  EXPECT_EQ(back.count(), 0);
+  EXPECT_EQ(back.box.lengths(), Eigen::Vector3d(2, 3, 4));
+}
+
+/// The names in `dir`, so a test can check that no temporary was left behind.
+std::vector<std::string> listDirectory(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// Limits the size of files this process may write (RLIMIT_FSIZE, SIGXFSZ ignored) for its lifetime, so
+/// a write fails part way through as on a full disk.
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    getrlimit(RLIMIT_FSIZE, &saved_);
+    previous_ = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit = saved_;
+    limit.rlim_cur = bytes;
+    setrlimit(RLIMIT_FSIZE, &limit);
+  }
+  ~FileSizeLimit() {
+    setrlimit(RLIMIT_FSIZE, &saved_);
+    std::signal(SIGXFSZ, previous_);
+  }
+
+ private:
+  rlimit saved_{};
+  void (*previous_)(int) = nullptr;
+};
+
+// Issue 15: a write that fails part way leaves the previous file intact and no temporary behind.
+TEST_F(TextFileTest, FailedWriteKeepsOldFileAndLeavesNoTemporary) {
+  const fs::path file = dir_ / "state.txt";
+  writeText(file, randomData(3, false, 11));
+  const ParticleData old = readText(file);
+  const ParticleData big = randomData(20000, true, 12);  // about 2 MB: several buffered writes
+  {
+    const FileSizeLimit limit(100000);
+    EXPECT_THROW(writeText(file, big), InputError);
+  }
+  const ParticleData back = readText(file);
+  EXPECT_EQ(back.count(), 3);
+  EXPECT_TRUE(bitEqual(back.position, old.position));
+  EXPECT_EQ(listDirectory(dir_), std::vector<std::string>{"state.txt"});
+}
+
+TEST_F(TextFileTest, WriteIntoVanishedDirectoryFailsCleanly) {
+  const fs::path sub = dir_ / "gone";
+  fs::create_directories(sub);
+  fs::remove(sub);
+  EXPECT_THROW(writeText(sub / "x.txt", randomData(2, false, 13)), InputError);
+  EXPECT_TRUE(listDirectory(dir_).empty());
 }
 
 TEST_F(TextFileTest, CommentsBlankLinesAndCrLfAreAccepted) {
@@ -267,8 +438,8 @@ const BadFile kBadFiles[] = {
     {"NegativeBoxLength", "1 -2 1 1\n", 1, {"column 2 (Lx)", "positive", "'-2'"}},
     {"NanBoxLength", "1 1 1 nan\n", 1, {"column 4 (Lz)", "positive and finite", "'nan'"}},
     {"UnparsableBoxLength", "1 1 1 1,5\n", 1, {"column 4 (Lz)", "cannot parse '1,5'"}},
-    {"FiveColumns", "1 1 1 1\n0.5 0.5 0.5 0.1 7\n", 2, {"expected 4 columns (x y z r) or 7", "got 5"}},
-    {"ThreeColumns", "1 1 1 1\n0.5 0.5 0.5\n", 2, {"expected 4 columns (x y z r) or 7", "got 3"}},
+    {"FiveColumns", "1 1 1 1\n0.5 0.5 0.5 0.1 7\n", 2, {"expected 4 columns (x y z r), 7", "or 10", "got 5"}},
+    {"ThreeColumns", "1 1 1 1\n0.5 0.5 0.5\n", 2, {"expected 4 columns (x y z r), 7", "got 3"}},
     {"MixedColumns", "2 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 0.1 0 0 0\n", 3,
      {"expected 4 columns (as on line 2), got 7"}},
     {"MixedColumnsVelocityFirst", "2 1 1 1\n\n0.5 0.5 0.5 0.1 0 0 0\n0.5 0.5 0.5 0.1\n", 4,
@@ -297,6 +468,31 @@ const BadFile kBadFiles[] = {
     {"BoundariesWrongCount", "# boundaries: wall wall\n1 1 1 1\n", 1, {"boundaries", "expected 3 words", "got 2"}},
     {"BoundariesUnknownWord", "# boundaries: wall walls periodic\n1 1 1 1\n", 1,
      {"boundaries", "unknown boundary 'walls' along y"}},
+    {"TimeTwice", "# time: 1\n# time: 2\n1 1 1 1\n0.5 0.5 0.5 0.1\n", 2, {"time given twice (first on line 1)"}},
+    {"TimeNotANumber", "# time: soon\n0 1 1 1\n", 1, {"time comment", "finite number", "'soon'"}},
+    {"TimeNan", "# time: nan\n0 1 1 1\n", 1, {"time comment", "'nan'"}},
+    {"TimeAfterHeader", "0 1 1 1\n# time: 1\n", 2, {"time comment must come before the header line (line 1)"}},
+    {"AttributeNoEquals", "# attribute: pressure 1e12\n0 1 1 1\n", 1, {"no '=' after the key 'pressure'"}},
+    {"AttributeNoKey", "# attribute: = 1\n0 1 1 1\n", 1, {"the key is missing"}},
+    {"AttributeEmptyQuotedKey", "# attribute: \"\" = 1\n0 1 1 1\n", 1, {"key must not be empty"}},
+    {"AttributeUnclosedQuote", "# attribute: k = \"open\n0 1 1 1\n", 1, {"value: missing closing"}},
+    {"AttributeBadEscape", "# attribute: k = \"a\\qb\"\n0 1 1 1\n", 1, {"unknown escape '\\q'"}},
+    {"AttributeBadHex", "# attribute: k = \"\\x4\"\n0 1 1 1\n", 1, {"\\x needs two hex digits"}},
+    {"AttributeTextAfterQuote", "# attribute: k = \"v\" w\n0 1 1 1\n", 1, {"text 'w' after the closing quote"}},
+    {"AttributeQuoteInBareKey", "# attribute: a\"b = 1\n0 1 1 1\n", 1, {"quote the whole key"}},
+    {"AttributeTwice", "# attribute: k = 1\n# attribute: k = 2\n0 1 1 1\n", 2, {"attribute 'k' given twice"}},
+    {"ColumnsUnknown", "# columns: x y z radius\n0 1 1 1\n", 1, {"columns comment", "expected [id] x y z r"}},
+    {"ColumnsOutOfOrder", "# columns: x y z r wx wy wz vx vy vz\n0 1 1 1\n", 1, {"columns comment", "'vx' at word 8"}},
+    {"ColumnsPartial", "# columns: x y z r vx vy\n0 1 1 1\n", 1, {"columns comment", "the end at word 7"}},
+    {"ColumnsCountMismatch", "# columns: id x y z r\n1 1 1 1\n0.5 0.5 0.5 0.1\n", 3,
+     {"expected 5 columns (as declared on line 1), got 4"}},
+    {"IdNotInteger", "# columns: id x y z r\n1 1 1 1\n1.5 0.5 0.5 0.5 0.1\n", 3, {"column 1 (id)", "'1.5'"}},
+    {"IdNegative", "# columns: id x y z r\n1 1 1 1\n-1 0.5 0.5 0.5 0.1\n", 3, {"column 1 (id)", "'-1'"}},
+    {"IdTwice", "# columns: id x y z r\n2 1 1 1\n4 0.5 0.5 0.5 0.1\n4 0.2 0.2 0.2 0.1\n", 4,
+     {"id 4 appears twice (also on line 3)"}},
+    {"IdColumnRadiusNamed", "# columns: id x y z r\n1 1 1 1\n3 0.5 0.5 0.5 -1\n", 3,
+     {"column 5 (r): radius must be positive"}},
+    {"ElevenColumnsWithoutDeclaration", "1 1 1 1\n0 1 1 1 1 0 0 0 0 0 0\n", 2, {"got 11"}},
     {"BoundariesTwice", "# boundaries: wall wall wall\n# boundaries: wall wall wall\n1 1 1 1\n", 2,
      {"boundaries given twice (first on line 1)"}},
     {"BoundariesAfterHeader", "1 1 1 1\n# boundaries: wall wall wall\n0.5 0.5 0.5 0.1\n", 2,

@@ -298,6 +298,10 @@ TEST(SizeDistribution, MonoAndBi) {
     EXPECT_NEAR(bi->cdf(1.0), 1.0 - nL, 1e-15);
     for (Index n : {1, 7, 1000, 12345}) {
       const auto expectedLarge = std::llround(n * nL);
+      if (n < bi->smallestRepresentativeCount()) {  // issue 15: a species would get no sphere
+        EXPECT_THROW(bi->sample(n, Sampling::Systematic, 1), ConfigError) << "n = " << n;
+        continue;
+      }
       for (std::uint64_t seed = 1; seed <= 20; ++seed) {
         const std::vector<double> radii = bi->sample(n, Sampling::Systematic, seed);
         ASSERT_EQ(radii.size(), static_cast<std::size_t>(n));
@@ -363,6 +367,45 @@ TEST(SizeDistribution, BadSpecsThrowNamingTheField) {
   expectConfigError({.kind = "gaussian"}, "valid kinds: mono, bi, uniform-radius");
   expectConfigError({.kind = "ln", .rmin = 100.0, .omega = 2.0, .sigma = 0.01, .median = 1.0}, "no probability");
   EXPECT_THROW(makeDistribution({.kind = "mono"})->sample(-1, Sampling::Random, 1), ConfigError);
+}
+
+// Issue 15: a sample that cannot represent the distribution (no large sphere drawn) is refused, naming
+// the smallest N that works.
+TEST(SizeDistribution, TooFewParticlesForARareSpeciesAreRefusedWithTheSmallestCount) {
+  const auto bi = makeDistribution({.kind = "bi", .rmin = 1.0, .omega = 1000.0, .largeFraction = 0.5});
+  const std::int64_t smallest = bi->smallestRepresentativeCount();
+  // n_L = 1 / (1 + 1000^3) at equal volume fractions: one large sphere from N n_L >= 1/2.
+  EXPECT_EQ(smallest, 500000001);
+  try {
+    bi->sample(1000, Sampling::Systematic, 1);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("the smallest count that works is N = 500000001"), std::string::npos)
+        << e.what();
+  }
+  // The boundary is exact: N - 1 is refused, N gives exactly one large sphere (checked on a cheaper case).
+  const auto bi3 = makeDistribution({.kind = "bi", .rmin = 1.0, .omega = 10.0, .largeFraction = 0.5});
+  const std::int64_t n3 = bi3->smallestRepresentativeCount();
+  ASSERT_GT(n3, 1);
+  EXPECT_THROW(bi3->sample(Index(n3 - 1), Sampling::Systematic, 1), ConfigError);
+  const std::vector<double> radii = bi3->sample(Index(n3), Sampling::Systematic, 1);
+  EXPECT_EQ(std::count(radii.begin(), radii.end(), 10.0), 1);
+  EXPECT_EQ(n3, 501);  // n_L = 1/1001
+  // The small species too: almost all the number in the large one.
+  const auto mostlyLarge = makeDistribution(
+      {.kind = "bi", .rmin = 1.0, .omega = 2.0, .largeFraction = 0.99, .fractionKind = FractionKind::Number});
+  const std::int64_t nSmall = mostlyLarge->smallestRepresentativeCount();
+  EXPECT_GE(nSmall, 50);  // N (1 - n_L) >= 1/2, up to the rounding of n_L N
+  EXPECT_LE(nSmall, 51);
+  EXPECT_THROW(mostlyLarge->sample(Index(nSmall - 1), Sampling::Systematic, 1), ConfigError);
+  const std::vector<double> mixed = mostlyLarge->sample(Index(nSmall), Sampling::Systematic, 1);
+  EXPECT_EQ(std::count(mixed.begin(), mixed.end(), 1.0), 1);
+  // Zero spheres request nothing; continuous families and mono have no minimum.
+  EXPECT_TRUE(bi->sample(0, Sampling::Systematic, 1).empty());
+  EXPECT_EQ(makeDistribution({.kind = "uniform-volume", .omega = 1000.0})->smallestRepresentativeCount(), 0);
+  EXPECT_EQ(makeDistribution({.kind = "mono"})->smallestRepresentativeCount(), 0);
+  // A random draw that misses the rare species is refused too.
+  EXPECT_THROW(bi3->sample(600, Sampling::Random, 1), ConfigError);
 }
 
 TEST(SizeDistribution, SampleMomentsOfAKnownSample) {
