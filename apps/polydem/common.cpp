@@ -52,16 +52,6 @@ std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>
   return {};
 }
 
-CLI::Validator finiteOpen(double lo, double hi) {
-  return CLI::Validator(
-      [lo, hi](std::string& text) -> std::string {
-        const auto value = io::parseFiniteDouble(text);
-        if (!value) return fmt::format("'{}' is not a finite number", text);
-        if (!(*value > lo && *value < hi)) return fmt::format("{} is outside ({:g}, {:g})", text, lo, hi);
-        return {};
-      },
-      fmt::format("FINITE in ({:g}, {:g})", lo, hi));
-}
 
 CLI::Validator boundaryNames() {
   return CLI::Validator(

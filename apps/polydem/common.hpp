@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "apps/polydem/validators.hpp"
 #include "core/box.hpp"
 #include "core/size_distribution.hpp"
 
@@ -23,8 +24,6 @@ const std::vector<std::string>& distributionOptionNames();
 /// The first of `names` given on the command line of `cmd`, or "" if none was.
 std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>& names);
 
-/// A finite number in the open interval (lo, hi), e.g. a packing fraction in (0, 1).
-CLI::Validator finiteOpen(double lo, double hi);
 
 /// A boundary specification parseBoundaries() accepts.
 CLI::Validator boundaryNames();

@@ -177,7 +177,7 @@ void writeCheckpoint(const std::filesystem::path& file, const Checkpoint& checkp
   QuietErrors quiet;
   AtomicFile atomic(file);
   {
-    Handle h(H5Fcreate(atomic.temporary().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    Handle h = hdf5::createInMemoryFile(atomic.temporary().string(), H5P_DEFAULT);
     if (!h.valid()) throw InputError(fmt::format("{}: cannot create the checkpoint file", name));
     Handle root(H5Gcreate2(h.get(), "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
     writeStringAttribute(root.get(), "kind", checkpoint.kind, name);
@@ -198,7 +198,9 @@ void writeCheckpoint(const std::filesystem::path& file, const Checkpoint& checkp
       }
     }
     root.reset();
-    if (!h.close()) throw InputError(fmt::format("{}: cannot finish writing the checkpoint", name));
+    if (!hdf5::writeImage(h, atomic.temporary().string())) {
+      throw InputError(fmt::format("{}: cannot write the checkpoint (disk full or not writable?)", name));
+    }
   }
   atomic.commit();
 }

@@ -5,7 +5,10 @@
 #if POLYDEM_WITH_HDF5
 #include <hdf5.h>
 
+#include <fstream>
+#include <string>
 #include <utility>
+#include <vector>
 
 namespace polydem::io::hdf5 {
 
@@ -61,6 +64,30 @@ class QuietErrors {
   H5E_auto2_t function_ = nullptr;
   void* clientData_ = nullptr;
 };
+
+/// Create an HDF5 file in memory (core driver, no backing store): nothing touches the disk until
+/// writeImage(), so a full disk or a file-size limit is an ordinary write error in our code instead of
+/// a half-closed HDF5 file that the library trips over again at exit. Invalid handle on failure.
+inline Handle createInMemoryFile(const std::string& name, hid_t fcpl) {
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (!fapl.valid() || H5Pset_fapl_core(fapl.get(), std::size_t(1) << 20, 0) < 0) return Handle();
+  return Handle(H5Fcreate(name.c_str(), H5F_ACC_TRUNC, fcpl, fapl.get()), H5Fclose);
+}
+
+/// Flush the in-memory file `f`, write its image to `path`, close `f`. False on any failure.
+inline bool writeImage(Handle& f, const std::string& path) {
+  if (H5Fflush(f.get(), H5F_SCOPE_GLOBAL) < 0) return false;
+  const ssize_t size = H5Fget_file_image(f.get(), nullptr, 0);
+  if (size < 0) return false;
+  std::vector<char> image(static_cast<std::size_t>(size));
+  if (size > 0 && H5Fget_file_image(f.get(), image.data(), image.size()) != size) return false;
+  if (!f.close()) return false;
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  if (!out) return false;
+  out.write(image.data(), static_cast<std::streamsize>(image.size()));
+  out.close();
+  return static_cast<bool>(out);
+}
 
 }  // namespace polydem::io::hdf5
 #endif

@@ -487,7 +487,10 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
   AtomicFile atomicH5(file);
   AtomicFile atomicXdmf(xdmfPath(file));
   const Handle fcpl = untimedCreation(ctx, H5P_FILE_CREATE, "the root group");
-  Handle h5(H5Fcreate(atomicH5.temporary().c_str(), H5F_ACC_TRUNC, fcpl.get(), H5P_DEFAULT), H5Fclose);
+  if (!std::ofstream(atomicH5.temporary(), std::ios::binary)) {
+    ctx.fail(fmt::format("cannot create HDF5 file (is the directory there and writable?)"));
+  }
+  Handle h5 = hdf5::createInMemoryFile(atomicH5.temporary().string(), fcpl.get());
   if (!h5.valid()) ctx.fail(fmt::format("cannot create HDF5 file{}", hdf5Detail()));
   const hid_t f = h5.get();
   const auto n = static_cast<hsize_t>(data.count());
@@ -519,7 +522,9 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
     }
   }
   writeDoubleAttribute(ctx, f, "time", data.time);
-  if (!h5.close()) ctx.fail(fmt::format("cannot close (flush) HDF5 file{}", hdf5Detail()));
+  if (!hdf5::writeImage(h5, atomicH5.temporary().string())) {
+    ctx.fail(fmt::format("cannot write the HDF5 file (disk full or not writable?){}", hdf5Detail()));
+  }
 
   writeXdmf(file, atomicXdmf.temporary(), data);
   atomicH5.commit();

@@ -42,16 +42,16 @@ polydem_cli_test(NAME jam_stage_pressure COMMAND jam -n 50 --schedule 1e-3:0.5,1
                  LABELS jam)
 polydem_cli_test(NAME jam_block_tiny COMMAND jam -n 50 --block 1e-6 EXIT 2 PASS "--block 1e-06: must be 0"
                  LABELS jam)
-polydem_cli_test(NAME jam_phi0_one COMMAND jam -n 50 --phi0 1 EXIT 105 PASS "phi0" LABELS jam)
-polydem_cli_test(NAME jam_count_negative COMMAND jam -n -5 EXIT 105 PASS "count" LABELS jam)
-polydem_cli_test(NAME jam_run_collisions_negative COMMAND jam -n 50 --run-collisions -1 EXIT 105 PASS "run-collisions"
+polydem_cli_test(NAME jam_phi0_one COMMAND jam -n 50 --phi0 1 EXIT 2 PASS "phi0" LABELS jam)
+polydem_cli_test(NAME jam_count_negative COMMAND jam -n -5 EXIT 2 PASS "count" LABELS jam)
+polydem_cli_test(NAME jam_run_collisions_negative COMMAND jam -n 50 --run-collisions -1 EXIT 2 PASS "run-collisions"
                  LABELS jam)
 # NaN for every numeric option (a script: the validators echo the offending text, which cli_check's
 # no-"nan" rule would reject).
 add_test(NAME cli_jam_nan_options
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_nan.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_jam_nan_options PROPERTIES TIMEOUT 60 LABELS "cli;jam")
-polydem_cli_test(NAME jam_target_phi_above_one COMMAND jam -n 50 --target-phi 1.5 EXIT 105 PASS "target-phi"
+polydem_cli_test(NAME jam_target_phi_above_one COMMAND jam -n 50 --target-phi 1.5 EXIT 2 PASS "target-phi"
                  LABELS jam)
 
 # --- detected during the run: exit 4, output written and marked --------------------------------------
