@@ -77,6 +77,57 @@ void forEach(Index n, [[maybe_unused]] int threads, Body body) {
   for (Index i = 0; i < n; ++i) body(i);
 }
 
+/// What a half kick reads and writes: a rate (v or omega), its driver (F or torque) and inverse
+/// inertia (1/m or 1/I), and the predicted full-step rate (written when kPredict).
+struct KickArrays {
+  double* rate;
+  const double* driver;
+  const double* inverse;
+  double* predicted = nullptr;
+};
+/// What the drift reads and writes: positions, and the centres of the last neighbour-list build.
+struct DriftArrays {
+  double* position = nullptr;
+  const double* reference = nullptr;
+};
+
+/// One velocity-Verlet half kick, rate += dt/2 driver * inverse, for every particle; with kDrift also
+/// the drift x += dt v that follows it, with kPredict the predicted rate(t + dt) = rate + dt/2 driver *
+/// inverse for the dashpots. Returns the largest squared displacement since the last build with kDrift
+/// (else 0). One pass over the particles, so the opening kick, the drift and the displacement check
+/// read each particle once.
+template <bool kDrift, bool kPredict>
+double halfKick(Index n, int threads, double dt, const KickArrays& k, const DriftArrays& d = {}) {
+  const double half = 0.5 * dt;
+  double* v = k.rate;
+  const double* f = k.driver;
+  const double* im = k.inverse;
+  [[maybe_unused]] double* vp = k.predicted;
+  [[maybe_unused]] double* x = d.position;
+  [[maybe_unused]] const double* ref = d.reference;
+  auto body = [=](Index i) {
+    const double h = half * im[i];
+    double dsq = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const Index a = 3 * i + c;
+      v[a] += h * f[a];
+      if constexpr (kDrift) x[a] += dt * v[a];
+      if constexpr (kPredict) vp[a] = v[a] + h * f[a];
+      if constexpr (kDrift) {
+        const double dx = x[a] - ref[a];
+        dsq += dx * dx;
+      }
+    }
+    return dsq;
+  };
+  if constexpr (kDrift) {
+    return maxOver(n, threads, body);
+  } else {
+    forEach(n, threads, body);
+    return 0.0;
+  }
+}
+
 }  // namespace
 
 void StabilityLimits::validate() const {
@@ -412,82 +463,16 @@ void DemSimulation::rebuild() {
 }
 
 std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
-  const Index n = particles_.count();
-  const int threads = settings_.threads;
-  const double dt = dt_;
-  const double half = 0.5 * dt;
   for (std::int64_t s = 0; s < steps; ++s) {
     const double limit = std::max(0.0, 0.5 * verlet_.skin() - growthSinceBuild_);
-    const double limitSq = limit * limit;
     const Clock::time_point t0 = Clock::now();
-    double* x = particles_.position().data();
-    double* v = particles_.velocity().data();
-    const double* f = particles_.force().data();
-    const double* im = particles_.inverseMass().data();
-    const double* ref = verlet_.reference().data();
-    double* vp = velocityPredicted_.data();
-    double maxSq = 0.0;
-    // Kick, drift, displacement since the last build (and the predicted velocity) in one pass.
-    if (predict_) {
-      maxSq = maxOver(n, threads, [=](Index i) {
-        const double h = half * im[i];
-        double dsq = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          v[a] += h * f[a];
-          x[a] += dt * v[a];
-          vp[a] = v[a] + h * f[a];
-          const double d = x[a] - ref[a];
-          dsq += d * d;
-        }
-        return dsq;
-      });
-    } else {
-      maxSq = maxOver(n, threads, [=](Index i) {
-        const double h = half * im[i];
-        double dsq = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          v[a] += h * f[a];
-          x[a] += dt * v[a];
-          const double d = x[a] - ref[a];
-          dsq += d * d;
-        }
-        return dsq;
-      });
-    }
-    if (kernel_.rotation) {
-      double* w = particles_.angularVelocity().data();
-      double* wp = angularVelocityPredicted_.data();
-      const double* tq = particles_.torque().data();
-      const double* ii = particles_.inverseInertia().data();
-      forEach(n, threads, [=](Index i) {
-        const double h = half * ii[i];
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          w[a] += h * tq[a];
-          wp[a] = w[a] + h * tq[a];
-        }
-      });
-    }
+    const double maxSq = openingKickAndDrift();
     const Clock::time_point t1 = Clock::now();
-    if (maxSq > limitSq) rebuild();
+    if (maxSq > limit * limit) rebuild();
     const Clock::time_point t2 = Clock::now();
     computeForces();
     const Clock::time_point t3 = Clock::now();
-    forEach(n, threads, [=](Index i) {
-      const double h = half * im[i];
-      for (int k = 0; k < 3; ++k) v[3 * i + k] += h * f[3 * i + k];
-    });
-    if (kernel_.rotation) {
-      double* w = particles_.angularVelocity().data();
-      const double* tq = particles_.torque().data();
-      const double* ii = particles_.inverseInertia().data();
-      forEach(n, threads, [=](Index i) {
-        const double h = half * ii[i];
-        for (int k = 0; k < 3; ++k) w[3 * i + k] += h * tq[3 * i + k];
-      });
-    }
+    closingKick();
     const Clock::time_point t4 = Clock::now();
     times_.integration += seconds(t0, t1) + seconds(t3, t4);
     times_.broadPhase += seconds(t1, t2);
@@ -500,6 +485,34 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     if (stopOnInterrupt && interruptRequested()) return s + 1;
   }
   return steps;
+}
+
+double DemSimulation::openingKickAndDrift() {
+  const Index n = particles_.count();
+  const int threads = settings_.threads;
+  KickArrays translation{particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data(),
+                         velocityPredicted_.data()};
+  const DriftArrays drift{particles_.position().data(), verlet_.reference().data()};
+  const double maxSq = predict_ ? halfKick<true, true>(n, threads, dt_, translation, drift)
+                                : halfKick<true, false>(n, threads, dt_, translation, drift);
+  if (kernel_.rotation) {
+    const KickArrays rotation{particles_.angularVelocity().data(), particles_.torque().data(),
+                              particles_.inverseInertia().data(), angularVelocityPredicted_.data()};
+    halfKick<false, true>(n, threads, dt_, rotation);
+  }
+  return maxSq;
+}
+
+void DemSimulation::closingKick() {
+  const Index n = particles_.count();
+  const int threads = settings_.threads;
+  halfKick<false, false>(n, threads, dt_,
+                         {particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data()});
+  if (kernel_.rotation) {
+    halfKick<false, false>(
+        n, threads, dt_,
+        {particles_.angularVelocity().data(), particles_.torque().data(), particles_.inverseInertia().data()});
+  }
 }
 
 void DemSimulation::growRadii(double factor) {

@@ -169,7 +169,12 @@ class DemSimulation {
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();
+  /// First half of a step: v += dt/2 F/m, x += dt v (and the predicted v, omega); returns the largest
+  /// squared displacement since the last build.
+  double openingKickAndDrift();
   void computeForces();
+  /// Second half of a step: v += dt/2 F/m (and omega += dt/2 torque/I) with the new forces.
+  void closingKick();
   [[noreturn]] void fail(const std::string& what, const std::string& cause) const;
   std::string dtHint() const;
 
