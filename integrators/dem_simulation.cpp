@@ -185,8 +185,7 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
     }
   }
 
-  const bool rotationLaw = model_.parameters().usesFriction() || settings_.generalKernel;
-  if (rotationLaw && !particles_.features().rotation) {
+  if (settings_.needsRotation() && !particles_.features().rotation) {
     throw ConfigError(fmt::format(
         "contact.friction = {} {}needs rotation, but the particle store was created without Features::rotation",
         model_.parameters().friction, settings_.generalKernel ? "(or the general kernel) " : ""));
@@ -259,7 +258,7 @@ void DemSimulation::selectKernel() {
   const auto& p = model_.parameters();
   bool gravityOnPeriodic = false;
   for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
-  conservative_ = p.restitution == 1.0 && p.friction == 0.0 && !flags_.viscous && !gravityOnPeriodic;
+  conservative_ = settings_.dissipationFree() && !gravityOnPeriodic;
   predict_ = p.restitution < 1.0 || flags_.viscous || kernel_.rotation;
 }
 
@@ -320,7 +319,7 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
     particles_.torque() = state.torque;
     particles_.inverseInertia() = state.inverseInertia;
   }
-  if ((model_.parameters().usesFriction() || settings_.generalKernel) && !state.rotation) {
+  if (settings_.needsRotation() && !state.rotation) {
     throw InputError("checkpoint: the contact law needs rotation but the saved state has none");
   }
   selectKernel();

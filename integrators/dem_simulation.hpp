@@ -57,6 +57,12 @@ struct DemSettings {
   /// An explicit timeStep above t_c,min / 5 is refused (ConfigError naming run.dt) unless this is set
   /// (run.allow_unstable_dt): the same rule as run.dt_factor >= 5.
   bool allowUnstableDt = false;
+  /// The particle store needs rotation arrays (Features::rotation): friction (torques), or the general
+  /// kernel, which has the Cundall-Strack terms compiled in.
+  bool needsRotation() const { return contact.usesFriction() || generalKernel; }
+  /// No dissipation at all: elastic contacts (e = 1, mu = 0) and no viscous damping. Energy is then
+  /// conserved unless gravity acts along a periodic axis (DemSimulation::conservative()).
+  bool dissipationFree() const { return contact.elastic() && viscousDamping == 0.0; }
   /// > 0: the initial velocities were scaled by the impact rule so that two smallest particles overlap by
   /// this fraction of their radius (velocities.overlap). Error messages then name velocities.overlap as
   /// the fix for excessive overlaps: a stiffer contact would only rescale the velocities again.
