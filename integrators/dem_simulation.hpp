@@ -6,7 +6,7 @@
 //   F = F(x, v_pred);  v += dt/2 F/m
 // with v_pred = v(t + dt/2) + dt/2 F(t)/m the predicted full-step velocity for dashpots (see
 // contact/force_loop.hpp). Rotation (omega, torque, solid-sphere inertia) is integrated the same way,
-// only when the law has friction. Periodic coordinates are wrapped into [0, L) at each rebuild, so
+// only when the kernel has rotation (friction, or the general kernel: DemSettings::needsRotation). Periodic coordinates are wrapped into [0, L) at each rebuild, so
 // between rebuilds they stray at most skin/2 outside, which the minimum image in the kernel absorbs.
 //
 // A stability check runs every `checkInterval` steps (and on demand): non-finite state, a particle
