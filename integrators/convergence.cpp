@@ -15,8 +15,8 @@ ConvergenceError convergenceError(const RunEnd& run, const RunEnd& reference, bo
   const double scale = std::abs(dissipationFree ? run.initialEnergy : reference.initialEnergy);
   const double diff = dissipationFree ? std::abs(run.finalEnergy - run.initialEnergy)
                                       : std::abs(run.finalEnergy - reference.finalEnergy);
-  error.energy = scale > 0.0 ? std::optional<double>(diff / scale)
-                             : (diff == 0.0 ? std::optional<double>(0.0) : std::nullopt);
+  error.energy =
+      scale > 0.0 ? std::optional<double>(diff / scale) : (diff == 0.0 ? std::optional<double>(0.0) : std::nullopt);
   for (Eigen::Index i = 0; i < run.positions.cols(); ++i) {
     error.position =
         std::max(error.position, box.minimumImageAny(run.positions.col(i) - reference.positions.col(i)).norm());

@@ -9,10 +9,9 @@
 // units of the smallest radius. Velocity Verlet is second order, so the energy error of a
 // dissipation-free run falls as dt^2 (Allen & Tildesley, Computer Simulation of Liquids, 2nd ed.,
 // Oxford 2017, ch. 3).
+#include <Eigen/Core>
 #include <cstdint>
 #include <optional>
-
-#include <Eigen/Core>
 
 #include "core/box.hpp"
 

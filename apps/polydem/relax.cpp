@@ -16,6 +16,10 @@
 // This file: the options, and run() = load (scene or checkpoint), check outputs, then compute, write and
 // report. The parts are declared in relax.hpp: relax_start.cpp (the starting state, soft compression),
 // relax_checkpoint.cpp, relax_run.cpp (the time loop and its outputs), relax_report.cpp, relax_sweep.cpp.
+#include "apps/polydem/relax.hpp"
+
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -23,11 +27,8 @@
 #include <optional>
 #include <sstream>
 
-#include <fmt/format.h>
-
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/exit_codes.hpp"
-#include "apps/polydem/relax.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
@@ -96,10 +97,10 @@ LoadedRun load(const RelaxOptions& opt) {
     if (!opt.sweep.empty()) throw ConfigError("relax --resume cannot be combined with --sweep");
     for (const std::string& o : overrides) {
       if (!resumableKey(o)) {
-        throw ConfigError(fmt::format(
-            "relax --resume: '{}' would change the trajectory of the saved run; only run.steps (--steps), "
-            "run.threads (--threads), run.progress_interval and output.* may be given",
-            o));
+        throw ConfigError(
+            fmt::format("relax --resume: '{}' would change the trajectory of the saved run; only run.steps (--steps), "
+                        "run.threads (--threads), run.progress_interval and output.* may be given",
+                        o));
       }
     }
     run.checkpoint = io::readCheckpoint(opt.resume, kCheckpointKind);
@@ -166,16 +167,17 @@ int resume(const RelaxOptions& opt, LoadedRun& run) {
   const integrators::DemState state = stateFrom(checkpoint);
   if (checkpoint.string("phase") == "run") {
     if (scene.steps < state.step) {
-      throw ConfigError(fmt::format("run.steps = {} is below the checkpoint's step {}: run.steps counts from "
-                                    "step 0, give a larger total with --steps",
-                                    scene.steps, state.step));
+      throw ConfigError(
+          fmt::format("run.steps = {} is below the checkpoint's step {}: run.steps counts from "
+                      "step 0, give a larger total with --steps",
+                      scene.steps, state.step));
     }
     return exitCode(runScene(scene, integrators::DemSimulation::restore(state, runSettings(scene)), run.context,
                              RunMode{.quiet = opt.quiet, .resumed = true}));
   }
   if (checkpoint.string("phase") != "compression" || !scene.compression) {
-    throw InputError(fmt::format("{}: checkpoint phase '{}' does not match its scene", opt.resume,
-                                 checkpoint.string("phase")));
+    throw InputError(
+        fmt::format("{}: checkpoint phase '{}' does not match its scene", opt.resume, checkpoint.string("phase")));
   }
   const integrators::CompressionProgress progress = compressionFrom(checkpoint);
   std::optional<integrators::SoftCompression> compression;
@@ -227,7 +229,8 @@ Runner addRelax(CLI::App& app) {
                   "holds it. Allowed with it: --steps, --threads, -q, --set run.steps|run.threads|"
                   "run.progress_interval|output.*");
   cmd->add_flag("--print-defaults", opt->printDefaults, "print every scene key with its default (a TOML scene)");
-  cmd->add_option("--set", opt->sets, "override a scene key, section.key=value (repeatable), e.g. --set contact.restitution=0.5")
+  cmd->add_option("--set", opt->sets,
+                  "override a scene key, section.key=value (repeatable), e.g. --set contact.restitution=0.5")
       ->allow_extra_args(false);  // one value per --set, so the scene file is never swallowed
   cmd->add_option("--steps", opt->steps, "run.steps (total, counted from step 0)")->check(finiteIn(0, 9e18));
   cmd->add_option("--dt-factor", opt->dtFactor, "run.dt_factor: steps per shortest contact (>= 5)")

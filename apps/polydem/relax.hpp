@@ -3,6 +3,7 @@
 // checkpoints and resume (relax_checkpoint.cpp), the time loop with its outputs (relax_run.cpp), the
 // printed report (relax_report.cpp) and the dt-factor / skin sweep (relax_sweep.cpp). Internal to the
 // relax subcommand.
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -10,8 +11,6 @@
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "apps/polydem/relax_scene.hpp"
 #include "core/io/checkpoint.hpp"
@@ -31,7 +30,7 @@ struct Start {
   std::string origin;
   std::map<std::string, std::string> attributes;
   std::optional<std::string> targetNotReached;  ///< the soft compression stopped before its target: why
-  bool interrupted = false;                      ///< SIGINT/SIGTERM during the soft compression
+  bool interrupted = false;                     ///< SIGINT/SIGTERM during the soft compression
   std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;  ///< from the particle file
 };
 
@@ -101,8 +100,7 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
 // ---- the printed report (relax_report.cpp) ----------------------------------------------------------
 
 /// The lines before the time loop: particles, contact law, time step, broad phase, start state.
-void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,
-                bool resumed);
+void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run, bool resumed);
 /// What the report's timing line divides by and what it names.
 struct LoopTiming {
   double loopSeconds = 0.0;

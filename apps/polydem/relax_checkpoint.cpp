@@ -1,10 +1,10 @@
 // polydem relax: checkpoints. A checkpoint (io::Checkpoint, kind "relax") holds the DemState of the run
 // (or of its soft compression, with the CompressionProgress) and the scene as given, so that
 // `relax --resume FILE.h5` parses the same scene and continues bit-identically.
+#include <fmt/format.h>
+
 #include <cstring>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/relax.hpp"
 #include "core/errors.hpp"
@@ -143,8 +143,8 @@ integrators::CompressionProgress compressionFrom(const io::Checkpoint& c) {
   const auto& i = c.integers("compression_progress");
   const auto& r = c.reals("compression_values");
   if (i.size() != 5 || r.size() != 3 || i[0] < 0 || i[0] > 2) {
-    throw InputError(fmt::format("{}: checkpoint entry compression_progress / compression_values: malformed",
-                                 c.source.string()));
+    throw InputError(
+        fmt::format("{}: checkpoint entry compression_progress / compression_values: malformed", c.source.string()));
   }
   integrators::CompressionProgress p;
   p.phase = static_cast<integrators::CompressionProgress::Phase>(i[0]);

@@ -1,10 +1,9 @@
 // polydem relax: what is printed before the time loop and the closing report.
+#include <fmt/format.h>
 #include <sys/resource.h>
 
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/relax.hpp"
 #include "core/interrupt.hpp"
@@ -21,8 +20,7 @@ double peakMemoryMiB() {
 
 }  // namespace
 
-void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,
-                bool resumed) {
+void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run, bool resumed) {
   const Index n = sim.particles().count();
   const contact::ContactStats s0 = sim.contactStats();
   fmt::print("particles: {} ({}), box {}, packing fraction {:.4f}\n", n, run.origin, sim.box().describe(),
@@ -36,8 +34,8 @@ void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, 
     fmt::print("resumed at step {}: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J (step 0: {:.6g} J)\n",
                sim.step(), s0.contacts, s0.maxOverlapRatio, sim.energies().total(), sim.initialEnergy());
   } else {
-    fmt::print("start: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J\n", s0.contacts,
-               s0.maxOverlapRatio, sim.initialEnergy());
+    fmt::print("start: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J\n", s0.contacts, s0.maxOverlapRatio,
+               sim.initialEnergy());
   }
 }
 
@@ -62,20 +60,21 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
   fmt::print("max overlap / radius  {:.4g}\n", c.maxOverlapRatio);
   fmt::print("energy (J)            kinetic {:.6g}, rotational {:.6g}, elastic {:.6g}, potential {:.6g}\n", e.kinetic,
              e.rotational, e.elastic, e.potential);
-  const std::string relative = sim.initialEnergy() != 0.0
-                                   ? fmt::format("relative change {:+.3e}", (e.total() - sim.initialEnergy()) /
-                                                                                std::abs(sim.initialEnergy()))
-                                   : std::string("relative change undefined: the start energy is 0");
+  const std::string relative =
+      sim.initialEnergy() != 0.0
+          ? fmt::format("relative change {:+.3e}", (e.total() - sim.initialEnergy()) / std::abs(sim.initialEnergy()))
+          : std::string("relative change undefined: the start energy is 0");
   fmt::print("                      total {:.8g} (start {:.8g}, {})\n", e.total(), sim.initialEnergy(), relative);
-  fmt::print("time                  {:.4f} us/particle/step in the loop ({:.3f} s): broad phase {:.4f}, force {:.4f}, "
-             "integration {:.4f}, checks {:.4f}\n",
-             loopSeconds * perParticleStep, loopSeconds, t.broadPhase * perParticleStep, t.force * perParticleStep,
-             t.integration * perParticleStep, t.check * perParticleStep);
+  fmt::print(
+      "time                  {:.4f} us/particle/step in the loop ({:.3f} s): broad phase {:.4f}, force {:.4f}, "
+      "integration {:.4f}, checks {:.4f}\n",
+      loopSeconds * perParticleStep, loopSeconds, t.broadPhase * perParticleStep, t.force * perParticleStep,
+      t.integration * perParticleStep, t.check * perParticleStep);
   fmt::print("neighbour list        {} rebuilds, {} candidate pairs ({:.2f} per particle)\n", sim.rebuilds(),
              sim.neighbours().list().pairCount(), static_cast<double>(sim.neighbours().list().pairCount()) / n);
   fmt::print("memory                {:.1f} MiB held by the run ({:.0f} bytes/particle), peak RSS {:.1f} MiB\n",
-             static_cast<double>(sim.memoryBytes()) / (1024.0 * 1024.0),
-             static_cast<double>(sim.memoryBytes()) / n, peakMemoryMiB());
+             static_cast<double>(sim.memoryBytes()) / (1024.0 * 1024.0), static_cast<double>(sim.memoryBytes()) / n,
+             peakMemoryMiB());
   if (targetNotReached) fmt::print("TARGET NOT REACHED    {}\n", *targetNotReached);
   if (!scene.finalState.empty()) fmt::print("final state           {}\n", scene.finalState);
   if (!scene.timeseries.empty()) fmt::print("time series           {}\n", scene.timeseries);

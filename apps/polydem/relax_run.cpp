@@ -1,12 +1,12 @@
 // polydem relax: the time loop and its outputs (time series, snapshots, checkpoints, final state).
 // Outputs are written atomically (io::AtomicFile) except the time series, whose rows are flushed every
 // few seconds; a resumed run keeps the rows up to its checkpoint and appends.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <fstream>
 #include <numeric>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/relax.hpp"
@@ -207,9 +207,10 @@ LoopTiming timeLoop(const RelaxScene& scene, integrators::DemSimulation& sim, Ti
 void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
                   const std::vector<std::pair<std::filesystem::path, std::string>>& extra) {
   if (!scene.checkpoint.empty() && !POLYDEM_WITH_HDF5) {
-    throw ConfigError(fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, and this polydem was "
-                                  "built with POLYDEM_WITH_HDF5=OFF",
-                                  scene.checkpoint));
+    throw ConfigError(
+        fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, and this polydem was "
+                    "built with POLYDEM_WITH_HDF5=OFF",
+                    scene.checkpoint));
   }
   std::vector<std::pair<std::filesystem::path, std::string>> outputs = extra;
   if (!scene.finalState.empty()) outputs.emplace_back(scene.finalState, "output.final");

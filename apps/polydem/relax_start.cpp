@@ -1,11 +1,11 @@
 // polydem relax: the starting state. The particles are read from the scene's particle file or
 // generated (random sequential addition), optionally softly compressed, then given their initial
 // velocities (from the file, the impact rule, or zero).
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/relax.hpp"
@@ -32,10 +32,11 @@ io::ParticleData readInput(const RelaxScene& scene) {
       for (Boundary x : b) t += std::string(t.empty() ? "" : ",") + (x == Boundary::Periodic ? "periodic" : "wall");
       return t;
     };
-    throw ConfigError(fmt::format("box.boundaries = \"{}\" conflicts with {}, which stores boundaries {}: remove "
-                                  "box.boundaries from the scene to use the file's, or write the file with the "
-                                  "boundaries you want",
-                                  words(scene.boundaries), path.string(), words(fileBoundaries)));
+    throw ConfigError(
+        fmt::format("box.boundaries = \"{}\" conflicts with {}, which stores boundaries {}: remove "
+                    "box.boundaries from the scene to use the file's, or write the file with the "
+                    "boundaries you want",
+                    words(scene.boundaries), path.string(), words(fileBoundaries)));
   }
   return data;
 }
@@ -63,12 +64,12 @@ Start prepare(const RelaxScene& scene) {
   } else {
     const auto dist = makeDistribution(scene.distribution);
     PackingRequest request;
-    request.radii = dist->sample(scene.count, scene.sampling == "random" ? Sampling::Random : Sampling::Systematic,
-                                 scene.seed);
+    request.radii =
+        dist->sample(scene.count, scene.sampling == "random" ? Sampling::Random : Sampling::Systematic, scene.seed);
     std::mt19937_64 rng(scene.seed ^ 0x9e3779b97f4a7c15ULL);
     std::shuffle(request.radii.begin(), request.radii.end(), rng);
-    const double target = scene.compression ? std::min(scene.packingFraction, scene.compression->targetPacking)
-                                            : scene.packingFraction;
+    const double target =
+        scene.compression ? std::min(scene.packingFraction, scene.compression->targetPacking) : scene.packingFraction;
     request.packingFraction = target;
     request.aspect = scene.aspect;
     request.boundaries = scene.boundaries;
@@ -93,9 +94,10 @@ void setVelocities(const RelaxScene& scene, Start& s) {
   const bool rotation = scene.dem.needsRotation();
   if (scene.initialVelocities == "file") {
     if (!s.fileVelocity) {
-      throw ConfigError(fmt::format("velocities.initial = \"file\" but {} has no velocity columns; use "
-                                    "velocities.initial = \"impact\" or \"zero\"",
-                                    scene.particleFile));
+      throw ConfigError(
+          fmt::format("velocities.initial = \"file\" but {} has no velocity columns; use "
+                      "velocities.initial = \"impact\" or \"zero\"",
+                      scene.particleFile));
     }
     if (scene.compression) throw ConfigError("velocities.initial = \"file\" cannot follow [compression]");
     s.particles.velocity() = *s.fileVelocity;
@@ -104,9 +106,10 @@ void setVelocities(const RelaxScene& scene, Start& s) {
   } else if (scene.initialVelocities == "impact") {
     const double v = integrators::assignImpactVelocities(contact::ContactModel(scene.dem.contact), s.particles,
                                                          scene.impactOverlap, scene.velocitySeed);
-    fmt::print("velocities: Gaussian, equipartition, scaled so two smallest particles meet at v* = {:.4g} m/s "
-               "(head-on overlap {:g} of their radius)\n",
-               v, scene.impactOverlap);
+    fmt::print(
+        "velocities: Gaussian, equipartition, scaled so two smallest particles meet at v* = {:.4g} m/s "
+        "(head-on overlap {:g} of their radius)\n",
+        v, scene.impactOverlap);
   } else {
     s.particles.velocity().setZero();
   }
@@ -143,9 +146,10 @@ void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Sta
   }
   if (interrupted && checkpoints) writeCheckpoint();
   const integrators::CompressionResult r = c.result();
-  fmt::print("soft compression: packing fraction {:.4f} after {} growth + {} relaxation steps, max overlap / r "
-             "{:.4g}, {} rebuilds, {:.1f} s\n",
-             r.packingFraction, r.growthSteps, r.relaxSteps, r.maxOverlapRatio, r.rebuilds, clock.seconds());
+  fmt::print(
+      "soft compression: packing fraction {:.4f} after {} growth + {} relaxation steps, max overlap / r "
+      "{:.4g}, {} rebuilds, {:.1f} s\n",
+      r.packingFraction, r.growthSteps, r.relaxSteps, r.maxOverlapRatio, r.rebuilds, clock.seconds());
   if (interrupted) {
     start.interrupted = true;
     start.targetNotReached = "soft compression interrupted: " + r.reason;

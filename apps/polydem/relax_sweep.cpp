@@ -1,13 +1,13 @@
 // polydem relax --sweep dt-factor=10,20,50 | skin=0.05,0.1: the same start run once per setting over the
 // same simulated time; a table of error (integrators::convergenceError) against wall time, as CSV and,
 // for dt-factor when gnuplot is installed, a PNG.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/exit_codes.hpp"
 #include "apps/polydem/relax.hpp"

@@ -1,10 +1,11 @@
 // The rules of relax --sweep (integrators/convergence.hpp) and the DemSettings predicates that the
 // command line and DemSimulation share.
-#include <optional>
+#include "integrators/convergence.hpp"
 
 #include <gtest/gtest.h>
 
-#include "integrators/convergence.hpp"
+#include <optional>
+
 #include "integrators/dem_simulation.hpp"
 
 namespace polydem::integrators {
