@@ -69,7 +69,7 @@ Start prepare(const RelaxScene& scene) {
     std::mt19937_64 rng(scene.seed ^ 0x9e3779b97f4a7c15ULL);
     std::shuffle(request.radii.begin(), request.radii.end(), rng);
     const double target =
-        scene.compression ? std::min(scene.packingFraction, scene.compression->targetPacking) : scene.packingFraction;
+        scene.compression ? scene.compression->startPacking(scene.packingFraction) : scene.packingFraction;
     request.packingFraction = target;
     request.aspect = scene.aspect;
     request.boundaries = scene.boundaries;

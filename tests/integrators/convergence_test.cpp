@@ -1,5 +1,5 @@
-// The rules of relax --sweep (integrators/convergence.hpp) and the DemSettings predicates that the
-// command line and DemSimulation share.
+// The rules of relax --sweep (integrators/convergence.hpp), and the DemSettings and CompressionSettings
+// predicates that the command line and the library share.
 #include "integrators/convergence.hpp"
 
 #include <gtest/gtest.h>
@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "integrators/dem_simulation.hpp"
+#include "integrators/soft_compression.hpp"
 
 namespace polydem::integrators {
 namespace {
@@ -74,6 +75,13 @@ TEST(DemSettingsRules, DissipationFree) {
   s.viscousDamping = 0.0;
   s.gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  // gravity conserves energy: still dissipation-free
   EXPECT_TRUE(s.dissipationFree());
+}
+
+TEST(CompressionRules, StartIsGeneratedAtMostAtTheTarget) {
+  CompressionSettings c;
+  c.targetPacking = 0.6;
+  EXPECT_EQ(c.startPacking(0.3), 0.3);
+  EXPECT_EQ(c.startPacking(0.7), 0.6);
 }
 
 }  // namespace
