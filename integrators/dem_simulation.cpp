@@ -30,8 +30,6 @@ double resolveSkin(double skin, const ParticleStore& particles) {
   return 0.2 * particles.radius().minCoeff();
 }
 
-std::string faceName(int face) { return fmt::format("{}{}", (face & 1) ? "+" : "-", "xyz"[face >> 1]); }
-
 /// body(i) for i in [0, n), on `threads` OpenMP threads when > 1. Returns the largest value body returned
 /// (exact, so independent of the split). Dynamic chunks of kChunk particles although the work per particle
 /// is uniform: on a shared machine a thread that loses its core mid-loop then holds up the barrier for
@@ -77,19 +75,58 @@ void forEach(Index n, [[maybe_unused]] int threads, Body body) {
   for (Index i = 0; i < n; ++i) body(i);
 }
 
-}  // namespace
+/// What a half kick reads and writes: a rate (v or omega), its driver (F or torque) and inverse
+/// inertia (1/m or 1/I), and the predicted full-step rate (written when kPredict).
+struct KickArrays {
+  double* rate;
+  const double* driver;
+  const double* inverse;
+  double* predicted = nullptr;
+};
+/// What the drift reads and writes: positions, and the centres of the last neighbour-list build.
+struct DriftArrays {
+  double* position = nullptr;
+  const double* reference = nullptr;
+};
 
-void StabilityLimits::validate() const {
-  if (checkInterval < 0) {
-    throw ConfigError(fmt::format("run.check_interval must be >= 0 (0 = never), got {}", checkInterval));
-  }
-  if (!(maxOverlapFraction > 0.0 && std::isfinite(maxOverlapFraction))) {
-    throw ConfigError(fmt::format("run.max_overlap_fraction must be > 0, got {}", maxOverlapFraction));
-  }
-  if (!(energyTolerance > 0.0 && std::isfinite(energyTolerance))) {
-    throw ConfigError(fmt::format("run.energy_tolerance must be > 0, got {}", energyTolerance));
+/// One velocity-Verlet half kick, rate += dt/2 driver * inverse, for every particle; with kDrift also
+/// the drift x += dt v that follows it, with kPredict the predicted rate(t + dt) = rate + dt/2 driver *
+/// inverse for the dashpots. Returns the largest squared displacement since the last build with kDrift
+/// (else 0). One pass over the particles, so the opening kick, the drift and the displacement check
+/// read each particle once.
+template <bool kDrift, bool kPredict>
+double halfKick(Index n, int threads, double dt, const KickArrays& k, const DriftArrays& d = {}) {
+  const double half = 0.5 * dt;
+  double* v = k.rate;
+  const double* f = k.driver;
+  const double* im = k.inverse;
+  [[maybe_unused]] double* vp = k.predicted;
+  [[maybe_unused]] double* x = d.position;
+  [[maybe_unused]] const double* ref = d.reference;
+  auto body = [=](Index i) {
+    const double h = half * im[i];
+    double dsq = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const Index a = 3 * i + c;
+      v[a] += h * f[a];
+      if constexpr (kDrift) x[a] += dt * v[a];
+      if constexpr (kPredict) vp[a] = v[a] + h * f[a];
+      if constexpr (kDrift) {
+        const double dx = x[a] - ref[a];
+        dsq += dx * dx;
+      }
+    }
+    return dsq;
+  };
+  if constexpr (kDrift) {
+    return maxOver(n, threads, body);
+  } else {
+    forEach(n, threads, body);
+    return 0.0;
   }
 }
+
+}  // namespace
 
 std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box) {
   const auto n = static_cast<Index>(centres.cols());
@@ -134,8 +171,7 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
     }
   }
 
-  const bool rotationLaw = model_.parameters().usesFriction() || settings_.generalKernel;
-  if (rotationLaw && !particles_.features().rotation) {
+  if (settings_.needsRotation() && !particles_.features().rotation) {
     throw ConfigError(fmt::format(
         "contact.friction = {} {}needs rotation, but the particle store was created without Features::rotation",
         model_.parameters().friction, settings_.generalKernel ? "(or the general kernel) " : ""));
@@ -208,7 +244,7 @@ void DemSimulation::selectKernel() {
   const auto& p = model_.parameters();
   bool gravityOnPeriodic = false;
   for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
-  conservative_ = p.restitution == 1.0 && p.friction == 0.0 && !flags_.viscous && !gravityOnPeriodic;
+  conservative_ = settings_.dissipationFree() && !gravityOnPeriodic;
   predict_ = p.restitution < 1.0 || flags_.viscous || kernel_.rotation;
 }
 
@@ -269,7 +305,7 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
     particles_.torque() = state.torque;
     particles_.inverseInertia() = state.inverseInertia;
   }
-  if ((model_.parameters().usesFriction() || settings_.generalKernel) && !state.rotation) {
+  if (settings_.needsRotation() && !state.rotation) {
     throw InputError("checkpoint: the contact law needs rotation but the saved state has none");
   }
   selectKernel();
@@ -412,82 +448,16 @@ void DemSimulation::rebuild() {
 }
 
 std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
-  const Index n = particles_.count();
-  const int threads = settings_.threads;
-  const double dt = dt_;
-  const double half = 0.5 * dt;
   for (std::int64_t s = 0; s < steps; ++s) {
     const double limit = std::max(0.0, 0.5 * verlet_.skin() - growthSinceBuild_);
-    const double limitSq = limit * limit;
     const Clock::time_point t0 = Clock::now();
-    double* x = particles_.position().data();
-    double* v = particles_.velocity().data();
-    const double* f = particles_.force().data();
-    const double* im = particles_.inverseMass().data();
-    const double* ref = verlet_.reference().data();
-    double* vp = velocityPredicted_.data();
-    double maxSq = 0.0;
-    // Kick, drift, displacement since the last build (and the predicted velocity) in one pass.
-    if (predict_) {
-      maxSq = maxOver(n, threads, [=](Index i) {
-        const double h = half * im[i];
-        double dsq = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          v[a] += h * f[a];
-          x[a] += dt * v[a];
-          vp[a] = v[a] + h * f[a];
-          const double d = x[a] - ref[a];
-          dsq += d * d;
-        }
-        return dsq;
-      });
-    } else {
-      maxSq = maxOver(n, threads, [=](Index i) {
-        const double h = half * im[i];
-        double dsq = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          v[a] += h * f[a];
-          x[a] += dt * v[a];
-          const double d = x[a] - ref[a];
-          dsq += d * d;
-        }
-        return dsq;
-      });
-    }
-    if (kernel_.rotation) {
-      double* w = particles_.angularVelocity().data();
-      double* wp = angularVelocityPredicted_.data();
-      const double* tq = particles_.torque().data();
-      const double* ii = particles_.inverseInertia().data();
-      forEach(n, threads, [=](Index i) {
-        const double h = half * ii[i];
-        for (int k = 0; k < 3; ++k) {
-          const Index a = 3 * i + k;
-          w[a] += h * tq[a];
-          wp[a] = w[a] + h * tq[a];
-        }
-      });
-    }
+    const double maxSq = openingKickAndDrift();
     const Clock::time_point t1 = Clock::now();
-    if (maxSq > limitSq) rebuild();
+    if (maxSq > limit * limit) rebuild();
     const Clock::time_point t2 = Clock::now();
     computeForces();
     const Clock::time_point t3 = Clock::now();
-    forEach(n, threads, [=](Index i) {
-      const double h = half * im[i];
-      for (int k = 0; k < 3; ++k) v[3 * i + k] += h * f[3 * i + k];
-    });
-    if (kernel_.rotation) {
-      double* w = particles_.angularVelocity().data();
-      const double* tq = particles_.torque().data();
-      const double* ii = particles_.inverseInertia().data();
-      forEach(n, threads, [=](Index i) {
-        const double h = half * ii[i];
-        for (int k = 0; k < 3; ++k) w[3 * i + k] += h * tq[3 * i + k];
-      });
-    }
+    closingKick();
     const Clock::time_point t4 = Clock::now();
     times_.integration += seconds(t0, t1) + seconds(t3, t4);
     times_.broadPhase += seconds(t1, t2);
@@ -500,6 +470,34 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     if (stopOnInterrupt && interruptRequested()) return s + 1;
   }
   return steps;
+}
+
+double DemSimulation::openingKickAndDrift() {
+  const Index n = particles_.count();
+  const int threads = settings_.threads;
+  KickArrays translation{particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data(),
+                         velocityPredicted_.data()};
+  const DriftArrays drift{particles_.position().data(), verlet_.reference().data()};
+  const double maxSq = predict_ ? halfKick<true, true>(n, threads, dt_, translation, drift)
+                                : halfKick<true, false>(n, threads, dt_, translation, drift);
+  if (kernel_.rotation) {
+    const KickArrays rotation{particles_.angularVelocity().data(), particles_.torque().data(),
+                              particles_.inverseInertia().data(), angularVelocityPredicted_.data()};
+    halfKick<false, true>(n, threads, dt_, rotation);
+  }
+  return maxSq;
+}
+
+void DemSimulation::closingKick() {
+  const Index n = particles_.count();
+  const int threads = settings_.threads;
+  halfKick<false, false>(n, threads, dt_,
+                         {particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data()});
+  if (kernel_.rotation) {
+    halfKick<false, false>(
+        n, threads, dt_,
+        {particles_.angularVelocity().data(), particles_.torque().data(), particles_.inverseInertia().data()});
+  }
 }
 
 void DemSimulation::growRadii(double factor) {
@@ -559,141 +557,6 @@ std::size_t DemSimulation::memoryBytes() const {
   bytes += verlet_.memoryBytes() + pairHistory_.memoryBytes() + wallHistory_.memoryBytes();
   bytes += (pairKeys_.capacity() + wallKeys_.capacity()) * sizeof(std::uint64_t);
   return bytes;
-}
-
-std::string DemSimulation::dtHint() const {
-  const double f = timeStep_.stepsPerContact;
-  const std::string law =
-      fmt::format("{} = {:g}", model_.parameters().normal == contact::NormalModel::Linear ? "k" : "K",
-                  model_.parameters().stiffness);
-  if (settings_.timeStep > 0.0) {
-    // The user fixed dt: run.dt_factor has no effect, so the fix must name run.dt.
-    return fmt::format("run.dt = {:.4g} s is too large for stiffness {}: it is t_c,min / {:.3g} (t_c,min = {:.4g} s); "
-                       "use run.dt <= {:.4g} s (t_c,min / 50), or remove run.dt and let run.dt_factor choose it",
-                       dt_, law, f, timeStep_.contactDuration, timeStep_.contactDuration / 50.0);
-  }
-  return fmt::format("dt too large for stiffness {}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
-                     "run.dt_factor f >= {:g}",
-                     law, dt_, f, timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
-}
-
-void DemSimulation::blowUp(Index slot, const std::string& what) const {
-  // A blow-up is a property of the run, not of the input: name the step, the particle, its speed and
-  // the energy against the start, so nobody goes looking for a bad coordinate in the input file.
-  const Eigen::Matrix3Xd& v = particles_.velocity();
-  Index fastest = 0;
-  double fastestSpeed = -1.0;
-  for (Index i = 0; i < particles_.count(); ++i) {
-    const double speed = v.col(i).norm();
-    if (!(speed <= fastestSpeed)) {  // NaN counts as fastest
-      fastestSpeed = speed;
-      fastest = i;
-    }
-  }
-  double kinetic = 0.0;
-  for (Index i = 0; i < particles_.count(); ++i) kinetic += 0.5 * v.col(i).squaredNorm() / particles_.inverseMass()[i];
-  fail(fmt::format("blow-up: particle id {} has {}; fastest particle id {} at {:.3g} m/s, kinetic energy {:.4g} J "
-                   "(total energy at step 0: {:.4g} J)",
-                   particles_.id()[static_cast<std::size_t>(slot)], what,
-                   particles_.id()[static_cast<std::size_t>(fastest)], fastestSpeed, kinetic, initialEnergy_),
-       dtHint());
-}
-
-void DemSimulation::fail(const std::string& what, const std::string& cause) const {
-  // The energy against step 0 tells a blow-up (energy grown by orders of magnitude) from a local fault.
-  const double energy = energies().total();
-  std::string energyText;
-  if (std::isfinite(energy)) {
-    const bool blowUp = std::abs(energy) > 10.0 * std::abs(initialEnergy_) && initialEnergy_ != 0.0;
-    energyText = fmt::format("; total energy {:.4g} J (step 0: {:.4g} J){}", energy, initialEnergy_,
-                             blowUp ? fmt::format(", {:.3g} times larger: the run blew up", energy / initialEnergy_)
-                                    : std::string());
-  } else {
-    energyText = fmt::format("; total energy not finite (step 0: {:.4g} J): the run blew up", initialEnergy_);
-  }
-  throw SimulationError(
-      fmt::format("step {} (t = {:.6g} s): {}{}. Likely cause: {}", step_, time(), what, energyText, cause));
-}
-
-void DemSimulation::checkStability() const {
-  const Index n = particles_.count();
-  const Eigen::Matrix3Xd& x = particles_.position();
-  const Eigen::Matrix3Xd& v = particles_.velocity();
-  auto idOf = [&](Index slot) { return particles_.id()[static_cast<std::size_t>(slot)]; };
-  double maxSpeed = 0.0;
-  for (Index i = 0; i < n; ++i) {
-    const bool rotationBad = particles_.features().rotation && !particles_.angularVelocity().col(i).allFinite();
-    if (!x.col(i).allFinite() || !v.col(i).allFinite() || rotationBad) {
-      fail(fmt::format("particle id {} (r = {:g}) has a non-finite {}", idOf(i), particles_.radius()[i],
-                       !x.col(i).allFinite() ? "position" : (rotationBad ? "angular velocity" : "velocity")),
-           dtHint());
-    }
-    maxSpeed = std::max(maxSpeed, v.col(i).norm());
-    for (int k = 0; k < 3; ++k) {
-      if (box_.periodic(k)) continue;
-      if (x(k, i) < 0.0 || x(k, i) > box_.length(k)) {
-        const double needed = model_.stiffnessForOverlap(0.05 * particles_.radius()[i], 1.0 / particles_.inverseMass()[i],
-                                                         particles_.radius()[i], std::max(maxSpeed, v.col(i).norm()));
-        fail(fmt::format("particle id {} (r = {:g}) left the walled box through the {} wall ({} = {:g}, box {})",
-                         idOf(i), particles_.radius()[i], faceName(2 * k + (x(k, i) > 0.0 ? 1 : 0)), "xyz"[k],
-                         x(k, i), box_.describe()),
-             timeStep_.stepsPerContact < 20.0
-                 ? dtHint()
-                 : fmt::format("the wall contact is too soft for the impact speed ({:.3g} m/s): stiffness >= {:.3g} "
-                               "keeps that impact below 5% of the radius",
-                               v.col(i).norm(), needed));
-      }
-    }
-  }
-
-  const contact::ContactStats stats = contactStats();
-  if (stats.maxOverlapRatio > settings_.stability.maxOverlapFraction) {
-    const Index i = stats.maxOverlapI, j = stats.maxOverlapJ;
-    const double ri = particles_.radius()[i];
-    std::string partner;
-    double meff, reff, rsmall, speed;
-    if (j >= 0) {
-      const double rj = particles_.radius()[j];
-      partner = fmt::format("particle id {} (r = {:g})", idOf(j), rj);
-      meff = 1.0 / (particles_.inverseMass()[i] + particles_.inverseMass()[j]);
-      reff = ri * rj / (ri + rj);
-      rsmall = std::min(ri, rj);
-    } else {
-      partner = fmt::format("the {} wall", faceName(-1 - j));
-      meff = 1.0 / particles_.inverseMass()[i];
-      reff = ri;
-      rsmall = ri;
-    }
-    speed = std::max(2.0 * maxSpeed, 1e-300);
-    const double needed = model_.stiffnessForOverlap(0.05 * rsmall, meff, reff, speed);
-    const std::string cause =
-        timeStep_.stepsPerContact < 20.0 ? dtHint()
-        : settings_.impactOverlap > 0.0
-            ? fmt::format("the impacts are too fast: the initial velocities were scaled so that two smallest "
-                          "particles overlap by velocities.overlap = {:g} of their radius, and larger or faster "
-                          "pairs overlap more; lower velocities.overlap (changing the stiffness only rescales the "
-                          "velocities again)",
-                          settings_.impactOverlap)
-            : fmt::format("stiffness {:g} too soft for the impact speeds (fastest particle {:.3g} m/s): stiffness >= "
-                          "{:.3g} keeps a head-on impact of this pair below 5% of the smaller radius; or start slower "
-                          "(seed protocol: 1% overlap of the smallest particles)",
-                          model_.parameters().stiffness, maxSpeed, needed);
-    fail(fmt::format("particle id {} (r = {:g}) and {} overlap by {:.3g} of the smaller radius (limit {:g})", idOf(i),
-                     ri, partner, stats.maxOverlapRatio, settings_.stability.maxOverlapFraction),
-         cause);
-  }
-
-  if (conservative_) {
-    const double energy = energies().total();
-    const double scale = std::max(std::abs(initialEnergy_), std::numeric_limits<double>::min());
-    const double growth = (energy - initialEnergy_) / scale;
-    if (growth > settings_.stability.energyTolerance) {
-      fail(fmt::format("total energy grew by {:.3g}% since step 0 (from {:.6g} J to {:.6g} J) in an elastic run "
-                       "(tolerance {:g}%)",
-                       100.0 * growth, initialEnergy_, energy, 100.0 * settings_.stability.energyTolerance),
-           dtHint());
-    }
-  }
 }
 
 }  // namespace polydem::integrators

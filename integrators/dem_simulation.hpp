@@ -6,7 +6,7 @@
 //   F = F(x, v_pred);  v += dt/2 F/m
 // with v_pred = v(t + dt/2) + dt/2 F(t)/m the predicted full-step velocity for dashpots (see
 // contact/force_loop.hpp). Rotation (omega, torque, solid-sphere inertia) is integrated the same way,
-// only when the law has friction. Periodic coordinates are wrapped into [0, L) at each rebuild, so
+// only when the kernel has rotation (friction, or the general kernel: DemSettings::needsRotation). Periodic coordinates are wrapped into [0, L) at each rebuild, so
 // between rebuilds they stray at most skin/2 outside, which the minimum image in the kernel absorbs.
 //
 // A stability check runs every `checkInterval` steps (and on demand): non-finite state, a particle
@@ -57,6 +57,12 @@ struct DemSettings {
   /// An explicit timeStep above t_c,min / 5 is refused (ConfigError naming run.dt) unless this is set
   /// (run.allow_unstable_dt): the same rule as run.dt_factor >= 5.
   bool allowUnstableDt = false;
+  /// The particle store needs rotation arrays (Features::rotation): friction (torques), or the general
+  /// kernel, which has the Cundall-Strack terms compiled in.
+  bool needsRotation() const { return contact.usesFriction() || generalKernel; }
+  /// No dissipation at all: elastic contacts (e = 1, mu = 0) and no viscous damping. Energy is then
+  /// conserved unless gravity acts along a periodic axis (DemSimulation::conservative()).
+  bool dissipationFree() const { return contact.elastic() && viscousDamping == 0.0; }
   /// > 0: the initial velocities were scaled by the impact rule so that two smallest particles overlap by
   /// this fraction of their radius (velocities.overlap). Error messages then name velocities.overlap as
   /// the fix for excessive overlaps: a stiffer contact would only rescale the velocities again.
@@ -169,7 +175,12 @@ class DemSimulation {
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();
+  /// First half of a step: v += dt/2 F/m, x += dt v (and the predicted v, omega); returns the largest
+  /// squared displacement since the last build.
+  double openingKickAndDrift();
   void computeForces();
+  /// Second half of a step: v += dt/2 F/m (and omega += dt/2 torque/I) with the new forces.
+  void closingKick();
   [[noreturn]] void fail(const std::string& what, const std::string& cause) const;
   std::string dtHint() const;
 

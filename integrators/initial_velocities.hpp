@@ -1,7 +1,8 @@
 #pragma once
-// Initial velocities for relaxation runs, following seed 000 ch. 2.1.4 (digest §4.2): random
-// velocities scaled so that two of the smallest (lightest) particles colliding head-on reach a
-// maximum overlap of about `overlapFraction` (1%) of their radius.
+// Initial velocities for relaxation runs, following the preparation protocol ("Experimental setup") of
+// Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931, numerical experiments (V. Ogarko, PhD thesis,
+// University of Twente, ch. 2.1.4): random velocities scaled so that two of the smallest (lightest) particles
+// colliding head-on reach a maximum overlap of about `overlapFraction` (1%) of their radius.
 //
 // Velocities are Gaussian with equipartition (per-component sigma_i = sigma sqrt(m_min / m_i), the
 // state an event-driven growth stage leaves behind), total momentum removed. For a Maxwellian gas the

@@ -7,6 +7,7 @@
 // Rates are in units of the shortest contact duration t_c,min, so the same settings work whatever the
 // stiffness: radii grow by `growthRate` (relative) per t_c,min, and the damping rate is
 // gamma = damping / t_c,min. Growth pauses while the largest overlap exceeds max(5 max_overlap, 5%).
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -23,6 +24,9 @@ struct CompressionSettings {
   std::int64_t maxSteps = 20'000'000;    ///< compression.max_steps: give up (target not reached) after this
   /// ConfigError naming the key for out-of-range values.
   void validate() const;
+  /// The packing fraction to generate the start at when `requested` is asked for: never above the
+  /// target, since the compression only grows radii (a start above it would never relax to it).
+  double startPacking(double requested) const { return std::min(requested, targetPacking); }
 };
 
 struct CompressionResult {

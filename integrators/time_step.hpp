@@ -7,7 +7,9 @@
 // special-case each, chooseTimeStep() evaluates the law on all pairs of a sample of particles: the two
 // lightest, the two smallest, the largest, and 64 radius quantiles (at most ~70^2 / 2 pairs), plus
 // each with a wall when the box has walls. Pairs are of distinct particles, so a two-particle scene
-// gets exactly the duration of its one pair. Seed 000 ch. 2.1.4 (digest §4.2) uses f = 50.
+// gets exactly the duration of its one pair. Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931
+// (thesis ch. 2.1.4) set dt from the smallest contact duration without stating f; the default f = 50
+// (DemSettings::stepsPerContact) is the common DEM choice, not theirs.
 #include <string>
 
 #include "contact/contact_law.hpp"

@@ -210,23 +210,8 @@ void applyOverride(toml::table& root, const std::string& assignment) {
   parsed.get("v")->visit([&](auto&& node) { target->insert_or_assign(key, node); });
 }
 
-RelaxScene interpret(const toml::table& root, const std::filesystem::path& source) {
-  static const std::set<std::string> kSections = {"particles", "box", "contact", "velocities",
-                                                  "compression", "run", "output"};
-  for (auto&& [key, node] : root) {
-    const std::string name(key.str());
-    if (!kSections.count(name)) {
-      throw ConfigError(fmt::format("unknown section or key '{}' (line {}); sections: particles, box, contact, "
-                                    "velocities, compression, run, output",
-                                    name, node.source().begin.line));
-    }
-    if (!node.is_table()) throw ConfigError(fmt::format("'{}' must be a [section]", name));
-  }
-  auto section = [&](const char* name) { return Section(root.get_as<toml::table>(name), name); };
-  RelaxScene s;
-  s.source = source;
-
-  Section particles = section("particles");
+/// [particles]: a file to read, or a size distribution to generate; the density. Returns whether the particles are generated.
+bool readParticles(Section particles, RelaxScene& s) {
   if (!particles.present()) throw ConfigError("missing section [particles]: give particles.file or particles.count");
   s.particleFile = particles.string("file", "");
   const bool generate = particles.has("count");
@@ -270,8 +255,11 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     throw ConfigError(fmt::format("particles.density must be > 0, got {}", s.density));
   }
   particles.finish();
+  return generate;
+}
 
-  Section box = section("box");
+/// [box]: boundaries and (generated particles only) the aspect ratio.
+void readBox(Section box, RelaxScene& s, bool generate) {
   s.boundariesGiven = box.has("boundaries");
   const std::string boundaries = box.words("boundaries", "periodic");
   s.boundaries = boundariesFrom(boundaries);
@@ -281,8 +269,10 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     throw ConfigError("box.aspect only applies when generating particles (the file gives the box)");
   }
   box.finish();
+}
 
-  Section contact = section("contact");
+/// [contact]: the contact law.
+void readContact(Section contact, RelaxScene& s) {
   if (!contact.present()) throw ConfigError("missing section [contact] (at least contact.stiffness)");
   contact::ContactParameters& c = s.dem.contact;
   c.normal = contact.choice("law", "linear", {"linear", "hertz"}) == "hertz" ? contact::NormalModel::Hertz
@@ -298,8 +288,10 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   c.referenceVelocity = contact.number("reference_velocity", c.referenceVelocity);
   contact.finish();
   c.validate();
+}
 
-  Section velocities = section("velocities");
+/// [velocities]: the initial velocities.
+void readVelocities(Section velocities, RelaxScene& s, bool generate) {
   s.initialVelocities = velocities.choice("initial", generate ? "impact" : "file", {"impact", "file", "zero"});
   if (generate && s.initialVelocities == "file") {
     throw ConfigError("velocities.initial = \"file\" needs particles.file");
@@ -310,8 +302,10 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   }
   s.velocitySeed = static_cast<std::uint64_t>(velocities.integerAtLeast("seed", 1, 0));
   velocities.finish();
+}
 
-  Section compression = section("compression");
+/// [compression] (optional): the soft compression.
+void readCompression(Section compression, RelaxScene& s) {
   if (compression.present()) {
     integrators::CompressionSettings cs;
     cs.targetPacking = compression.requiredNumber("packing_fraction");
@@ -323,8 +317,10 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
     cs.validate();
     s.compression = cs;
   }
+}
 
-  Section run = section("run");
+/// [run]: steps, time step, broad phase, body forces, checks, kernel and threads.
+void readRun(Section run, RelaxScene& s) {
   if (!run.present()) throw ConfigError("missing section [run] (at least run.steps)");
   run.require("steps");
   s.steps = run.integerAtLeast("steps", 0, 0);
@@ -369,8 +365,10 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
   if (!(dem.viscousDamping >= 0.0)) {
     throw ConfigError(fmt::format("run.viscous_damping must be >= 0, got {}", dem.viscousDamping));
   }
+}
 
-  Section output = section("output");
+/// [output]: files and their intervals.
+void readOutput(Section output, RelaxScene& s) {
   s.snapshot = output.string("snapshot", "");
   s.snapshotInterval = output.integerAtLeast("snapshot_interval", s.snapshotInterval, 0);
   s.timeseries = output.string("timeseries", "");
@@ -392,6 +390,31 @@ RelaxScene interpret(const toml::table& root, const std::filesystem::path& sourc
                                   "output.snapshot_interval > 0",
                                   s.snapshot));
   }
+}
+
+RelaxScene interpret(const toml::table& root, const std::filesystem::path& source) {
+  static const std::set<std::string> kSections = {"particles", "box", "contact", "velocities",
+                                                  "compression", "run", "output"};
+  for (auto&& [key, node] : root) {
+    const std::string name(key.str());
+    if (!kSections.count(name)) {
+      throw ConfigError(fmt::format("unknown section or key '{}' (line {}); sections: particles, box, contact, "
+                                    "velocities, compression, run, output",
+                                    name, node.source().begin.line));
+    }
+    if (!node.is_table()) throw ConfigError(fmt::format("'{}' must be a [section]", name));
+  }
+  auto section = [&](const char* name) { return Section(root.get_as<toml::table>(name), name); };
+  RelaxScene s;
+  s.source = source;
+
+  const bool generate = readParticles(section("particles"), s);
+  readBox(section("box"), s, generate);
+  readContact(section("contact"), s);
+  readVelocities(section("velocities"), s, generate);
+  readCompression(section("compression"), s);
+  readRun(section("run"), s);
+  readOutput(section("output"), s);
   return s;
 }
 

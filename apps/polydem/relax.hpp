@@ -1,0 +1,120 @@
+#pragma once
+// The parts of `polydem relax` (see relax.cpp for the subcommand): the starting state (relax_start.cpp),
+// checkpoints and resume (relax_checkpoint.cpp), the time loop with its outputs (relax_run.cpp), the
+// printed report (relax_report.cpp) and the dt-factor / skin sweep (relax_sweep.cpp). Internal to the
+// relax subcommand.
+#include <Eigen/Core>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "apps/polydem/relax_scene.hpp"
+#include "core/io/checkpoint.hpp"
+#include "core/io/particle_file.hpp"
+#include "integrators/dem_simulation.hpp"
+#include "integrators/soft_compression.hpp"
+
+namespace polydem::app {
+
+// ---- the starting state (relax_start.cpp) ----------------------------------------------------------
+
+/// The starting state: read or generated, masses from density; then compressed (compressStart) and
+/// given velocities (setVelocities).
+struct Start {
+  ParticleStore particles;
+  Box box;
+  std::string origin;
+  std::map<std::string, std::string> attributes;
+  std::optional<std::string> targetNotReached;  ///< the soft compression stopped before its target: why
+  bool interrupted = false;                     ///< SIGINT/SIGTERM during the soft compression
+  std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;  ///< from the particle file
+};
+
+/// What a resumed run needs besides the simulation state: the scene (as given: file text and overrides,
+/// so it is parsed exactly as the first time), the attributes written into outputs, and the origin line.
+struct RunContext {
+  std::string sceneText;
+  std::string sceneSource;
+  std::vector<std::string> overrides;
+  std::map<std::string, std::string> attributes;
+  std::string origin;
+  std::string checkpointNote;  ///< non-empty: the report's checkpoint line (a checkpoint written elsewhere)
+};
+
+/// Read or generate the particles of `scene` and set their masses.
+Start prepare(const RelaxScene& scene);
+/// The initial velocities of the run (after the compression, if any).
+void setVelocities(const RelaxScene& scene, Start& s);
+/// Run the soft compression of `scene` chunk by chunk; between chunks poll interrupts and write
+/// checkpoints (phase "compression") as the scene asks. On return `start` holds the compressed particles
+/// at rest, marked if the target was not reached or the run was interrupted.
+void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Start& start, const RunContext& run,
+                   bool quiet, bool checkpoints);
+
+// ---- checkpoints (relax_checkpoint.cpp) -------------------------------------------------------------
+
+inline constexpr const char* kCheckpointKind = "relax";
+
+/// `compression` non-null: the run is in its soft compression (phase "compression"), else in the time
+/// loop (phase "run").
+io::Checkpoint makeCheckpoint(const integrators::DemSimulation& sim, const RunContext& run,
+                              const integrators::CompressionProgress* compression = nullptr);
+integrators::DemState stateFrom(const io::Checkpoint& c);
+integrators::CompressionProgress compressionFrom(const io::Checkpoint& c);
+/// The scene text, overrides, attributes and origin saved in `c`, then `overrides` (later ones win).
+RunContext contextFrom(const io::Checkpoint& c, const std::vector<std::string>& overrides);
+/// Keys a resumed run may change: they decide how long it runs, on how many threads (bit-identical for
+/// any count) and what it writes, never the trajectory.
+bool resumableKey(const std::string& assignment);
+
+// ---- the time loop and its outputs (relax_run.cpp) --------------------------------------------------
+
+struct RunSummary {
+  double wallSeconds = 0.0;  ///< the time loop only
+  double finalEnergy = 0.0;
+  double initialEnergy = 0.0;
+  Eigen::Matrix3Xd positions;  ///< by id, for sweep comparisons
+  bool interrupted = false;
+};
+
+/// How runScene() runs and what it prints.
+struct RunMode {
+  bool quiet = false;    ///< no progress lines
+  bool brief = false;    ///< no start lines and no closing report (sweep rows)
+  bool resumed = false;  ///< continues a checkpoint: no step-0 outputs, the time series is appended to
+  std::optional<std::string> targetNotReached = {};  ///< the soft compression's reason: outputs are marked
+};
+
+/// Every output of the scene (and the sweep's), checked before anything is computed.
+void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
+                  const std::vector<std::pair<std::filesystem::path, std::string>>& extra = {});
+/// The time loop with outputs, checkpoints and progress; prints the start lines and the closing
+/// report unless `mode.brief`.
+RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, const RunContext& run,
+                    const RunMode& mode);
+
+// ---- the printed report (relax_report.cpp) ----------------------------------------------------------
+
+/// The lines before the time loop: particles, contact law, time step, broad phase, start state.
+void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run, bool resumed);
+/// What the report's timing line divides by and what it names.
+struct LoopTiming {
+  double loopSeconds = 0.0;
+  std::int64_t stepsRun = 0;
+  std::int64_t totalSteps = 0;
+  bool interrupted = false;
+};
+/// The closing "--- relax report ---".
+void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,
+                 const LoopTiming& timing, const std::optional<std::string>& targetNotReached);
+
+// ---- the sweep (relax_sweep.cpp) ---------------------------------------------------------------------
+
+/// --sweep dt-factor=10,20,50 | skin=0.05,0.1: same scene (same start) per setting, same simulated time.
+int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::vector<std::filesystem::path>& inputs);
+
+}  // namespace polydem::app

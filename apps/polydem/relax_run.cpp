@@ -1,0 +1,265 @@
+// polydem relax: the time loop and its outputs (time series, snapshots, checkpoints, final state).
+// Outputs are written atomically (io::AtomicFile) except the time series, whose rows are flushed every
+// few seconds; a resumed run keeps the rows up to its checkpoint and appends.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+
+#include "apps/polydem/common.hpp"
+#include "apps/polydem/relax.hpp"
+#include "core/errors.hpp"
+#include "core/interrupt.hpp"
+#include "core/io/attributes.hpp"
+#include "core/io/safe_output.hpp"
+#include "polydem/config.hpp"
+
+namespace polydem::app {
+
+namespace {
+
+/// Slots in ascending stored id: the order of every written particle file.
+std::vector<Index> idOrder(const ParticleStore& p) {
+  std::vector<Index> order(static_cast<std::size_t>(p.count()));
+  std::iota(order.begin(), order.end(), Index{0});
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) { return p.id()[a] < p.id()[b]; });
+  return order;
+}
+
+/// Particle data in id order, for snapshots and the final state: positions, velocities, angular
+/// velocities (rotation on), time and step.
+io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs) {
+  const ParticleStore& p = sim.particles();
+  const Index n = p.count();
+  const std::vector<Index> order = idOrder(p);
+  const bool rotation = p.features().rotation;
+  io::ParticleData d;
+  d.box = sim.box();
+  d.position.resize(3, n);
+  d.radius.resize(n);
+  d.velocity = Eigen::Matrix3Xd(3, n);
+  if (rotation) d.angularVelocity = Eigen::Matrix3Xd(3, n);
+  d.id.resize(static_cast<std::size_t>(n));
+  for (Index k = 0; k < n; ++k) {
+    const Index i = order[static_cast<std::size_t>(k)];
+    d.position.col(k) = sim.box().wrap(p.position().col(i));
+    d.radius[k] = p.radius()[i];
+    d.velocity->col(k) = p.velocity().col(i);
+    if (rotation) d.angularVelocity->col(k) = p.angularVelocity().col(i);
+    d.id[static_cast<std::size_t>(k)] = p.id()[static_cast<std::size_t>(i)];
+  }
+  d.time = sim.time();
+  d.attributes = attrs;
+  d.attributes["step"] = std::to_string(sim.step());
+  d.attributes["time"] = fmt::format("{:.17g}", sim.time());
+  d.attributes["contact"] = sim.model().parameters().describe();
+  d.attributes["dt"] = fmt::format("{:.17g}", sim.dt());
+  return d;
+}
+
+std::string withStep(const std::string& pattern, std::int64_t step) {
+  std::string out = pattern;
+  const std::size_t at = out.find("{step}");
+  if (at != std::string::npos) out.replace(at, 6, fmt::format("{:09d}", step));
+  return out;
+}
+
+/// The time series of a resumed run: the rows up to the checkpoint's step are kept (a run interrupted
+/// after its last checkpoint wrote rows beyond it, which the resumed run writes again), and a last line
+/// without its newline (a run killed mid-write) is dropped.
+void truncateTimeSeries(const std::string& file, std::int64_t step) {
+  std::ifstream in(file);
+  if (!in) return;
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  std::string kept;
+  std::size_t begin = 0;
+  for (std::size_t end = text.find('\n'); end != std::string::npos; begin = end + 1, end = text.find('\n', begin)) {
+    const std::string line = text.substr(begin, end - begin);
+    if (!kept.empty()) {  // the header is always kept
+      const auto rowStep = io::parseFiniteDouble(line.substr(0, line.find(',')));
+      if (!rowStep || *rowStep > static_cast<double>(step)) break;
+    }
+    kept += line + "\n";
+  }
+  in.close();
+  io::writeFileAtomically(file, kept);
+}
+
+/// output.timeseries: energies and contacts every output.timeseries_interval steps (CSV).
+class TimeSeries {
+ public:
+  TimeSeries(const RelaxScene& scene, const integrators::DemSimulation& sim, bool resumed) {
+    if (scene.timeseries.empty()) return;
+    const bool append = resumed && std::filesystem::exists(scene.timeseries);
+    if (append) truncateTimeSeries(scene.timeseries, sim.step());
+    csv_.open(scene.timeseries, append ? std::ios::app : std::ios::trunc);
+    if (!csv_) throw InputError(fmt::format("{}: cannot write the time series", scene.timeseries));
+    if (!append) {
+      csv_ << "step,time,kinetic,rotational,elastic,potential,total,contacts,wall_contacts,contacts_per_particle,"
+              "max_overlap_ratio,rebuilds\n";
+    }
+  }
+  bool enabled() const { return csv_.is_open(); }
+  void write(const integrators::DemSimulation& sim) {
+    const integrators::Energies e = sim.energies();
+    const contact::ContactStats c = sim.contactStats();
+    const Index n = sim.particles().count();
+    csv_ << fmt::format("{},{:.10g},{:.10g},{:.10g},{:.10g},{:.10g},{:.12g},{},{},{:.6g},{:.6g},{}\n", sim.step(),
+                        sim.time(), e.kinetic, e.rotational, e.elastic, e.potential, e.total(), c.contacts,
+                        c.wallContacts, 2.0 * static_cast<double>(c.contacts) / n, c.maxOverlapRatio, sim.rebuilds());
+    flush_(csv_);
+  }
+  void flush() {
+    if (csv_.is_open()) csv_.flush();
+  }
+
+ private:
+  std::ofstream csv_;
+  io::PeriodicFlush flush_;
+};
+
+/// Snapshots and checkpoints of the time loop, and the wall clock that times the loop and the
+/// timed checkpoints.
+class LoopOutputs {
+ public:
+  LoopOutputs(const RelaxScene& scene, const RunContext& run, std::map<std::string, std::string> attributes)
+      : scene_(scene), run_(run), attributes_(std::move(attributes)) {}
+  bool snapshots() const { return !scene_.snapshot.empty() && scene_.snapshotInterval > 0; }
+  bool checkpoints() const { return !scene_.checkpoint.empty(); }
+  void writeSnapshot(const integrators::DemSimulation& sim) const {
+    io::writeParticles(withStep(scene_.snapshot, sim.step()), snapshotOf(sim, attributes_));
+  }
+  void writeCheckpoint(const integrators::DemSimulation& sim) {
+    io::writeCheckpoint(scene_.checkpoint, makeCheckpoint(sim, run_));
+    lastCheckpoint_ = clock_.seconds();
+  }
+  /// Timed checkpoints read the state; they never change it, so wall time cannot reach the trajectory.
+  bool checkpointDue(std::int64_t step) const {
+    const bool byStep = scene_.checkpointInterval > 0 && step % scene_.checkpointInterval == 0;
+    const bool byTime =
+        scene_.checkpointSeconds > 0.0 && clock_.seconds() - lastCheckpoint_ >= scene_.checkpointSeconds;
+    return byStep || byTime;
+  }
+  void writeFinal(const integrators::DemSimulation& sim) const {
+    io::writeParticles(scene_.finalState, snapshotOf(sim, attributes_));
+  }
+  double seconds() const { return clock_.seconds(); }
+
+ private:
+  const RelaxScene& scene_;
+  const RunContext& run_;
+  std::map<std::string, std::string> attributes_;
+  Stopwatch clock_;
+  double lastCheckpoint_ = 0.0;
+};
+
+void printProgress(const integrators::DemSimulation& sim, std::int64_t total, std::int64_t firstStep,
+                   double loopSeconds) {
+  const double n = static_cast<double>(sim.particles().count());
+  const double done = static_cast<double>(sim.step() - firstStep);
+  const double rate = done / std::max(loopSeconds, 1e-9);
+  fmt::print(stderr, "  step {:>10} / {} ({:4.1f}%)  {:.0f} steps/s  {:.3f} us/particle/step  ETA {:.0f} s\n",
+             sim.step(), total, 100.0 * static_cast<double>(sim.step()) / static_cast<double>(total), rate,
+             1e6 * loopSeconds / (std::max(done, 1.0) * n), static_cast<double>(total - sim.step()) / rate);
+}
+
+/// Advance to scene.steps in chunks that end on every output interval, writing the outputs due at each
+/// chunk's end; stops early at an interrupt (after a complete step).
+LoopTiming timeLoop(const RelaxScene& scene, integrators::DemSimulation& sim, TimeSeries& series, LoopOutputs& out,
+                    bool quiet) {
+  LoopTiming timing;
+  double lastProgress = 0.0;
+  const std::int64_t total = scene.steps;
+  const std::int64_t firstStep = sim.step();
+  bool interrupted = interruptRequested();
+  auto boundary = [&](std::int64_t interval) { return (sim.step() / interval + 1) * interval; };
+  while (sim.step() < total && !interrupted) {
+    std::int64_t next = std::min(total, sim.step() + 200);
+    if (series.enabled()) next = std::min(next, boundary(scene.timeseriesInterval));
+    if (out.snapshots()) next = std::min(next, boundary(scene.snapshotInterval));
+    if (out.checkpoints() && scene.checkpointInterval > 0) next = std::min(next, boundary(scene.checkpointInterval));
+    const double before = out.seconds();
+    sim.advance(next - sim.step(), true);
+    timing.loopSeconds += out.seconds() - before;
+    interrupted = interruptRequested();
+    if (series.enabled() && sim.step() % scene.timeseriesInterval == 0) series.write(sim);
+    if (interrupted) break;
+    if (out.snapshots() && sim.step() % scene.snapshotInterval == 0) out.writeSnapshot(sim);
+    if (out.checkpoints() && sim.step() < total && out.checkpointDue(sim.step())) out.writeCheckpoint(sim);
+    const double now = out.seconds();
+    if (!quiet && scene.progressInterval > 0.0 && now - lastProgress >= scene.progressInterval && sim.step() < total) {
+      lastProgress = now;
+      printProgress(sim, total, firstStep, timing.loopSeconds);
+    }
+  }
+  timing.stepsRun = sim.step() - firstStep;
+  timing.totalSteps = total;
+  timing.interrupted = interrupted;
+  return timing;
+}
+
+}  // namespace
+
+void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
+                  const std::vector<std::pair<std::filesystem::path, std::string>>& extra) {
+  if (!scene.checkpoint.empty() && !POLYDEM_WITH_HDF5) {
+    throw ConfigError(
+        fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, and this polydem was "
+                    "built with POLYDEM_WITH_HDF5=OFF",
+                    scene.checkpoint));
+  }
+  std::vector<std::pair<std::filesystem::path, std::string>> outputs = extra;
+  if (!scene.finalState.empty()) outputs.emplace_back(scene.finalState, "output.final");
+  if (!scene.timeseries.empty()) outputs.emplace_back(scene.timeseries, "output.timeseries");
+  if (!scene.snapshot.empty()) outputs.emplace_back(withStep(scene.snapshot, 0), "output.snapshot");
+  if (!scene.checkpoint.empty()) outputs.emplace_back(scene.checkpoint, "output.checkpoint");
+  for (std::size_t a = 0; a < outputs.size(); ++a) {
+    io::checkOutputPath(outputs[a].first, outputs[a].second, inputs);
+    for (std::size_t b = 0; b < a; ++b) {
+      if (io::samePath(outputs[a].first, outputs[b].first)) {
+        throw ConfigError(fmt::format("{} and {} are the same file '{}': give each output its own name",
+                                      outputs[b].second, outputs[a].second, outputs[a].first.string()));
+      }
+    }
+  }
+}
+
+RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, const RunContext& run,
+                    const RunMode& mode) {
+  if (!mode.brief) printStart(scene, sim, run, mode.resumed);
+  std::map<std::string, std::string> attributes = run.attributes;
+  if (mode.targetNotReached) attributes["target_not_reached"] = *mode.targetNotReached;
+
+  TimeSeries series(scene, sim, mode.resumed);
+  LoopOutputs out(scene, run, std::move(attributes));
+  if (!mode.resumed) {
+    if (series.enabled()) series.write(sim);
+    if (out.snapshots()) out.writeSnapshot(sim);
+  }
+  const LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet);
+  series.flush();
+  // The checks run once at the end whatever run.check_interval says (0 included): no state is written
+  // as a result without having passed them.
+  if (!timing.interrupted) sim.checkStability();
+  if (out.checkpoints()) out.writeCheckpoint(sim);
+  if (!scene.finalState.empty()) out.writeFinal(sim);
+  if (!timing.interrupted && !scene.snapshot.empty() &&
+      (scene.snapshotInterval == 0 || sim.step() % scene.snapshotInterval != 0)) {
+    out.writeSnapshot(sim);
+  }
+
+  const integrators::Energies e = sim.energies();
+  RunSummary summary{timing.loopSeconds, e.total(), sim.initialEnergy(), {}, timing.interrupted};
+  const ParticleStore& p = sim.particles();
+  const std::vector<Index> order = idOrder(p);
+  summary.positions.resize(3, p.count());
+  for (Index k = 0; k < p.count(); ++k) summary.positions.col(k) = p.position().col(order[static_cast<std::size_t>(k)]);
+  if (!mode.brief) printReport(scene, sim, run, timing, mode.targetNotReached);
+  return summary;
+}
+
+}  // namespace polydem::app
