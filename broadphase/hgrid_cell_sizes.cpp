@@ -130,7 +130,7 @@ int appendixCount(std::span<const double> r, double boxVolume, double skin, doub
   int levels = 0;
   while (i0 < n && levels <= cap) {
     ++levels;
-    // Particle i0 opened this level (it is not re-tested: the seed resets the count to 1). The level
+    // Particle i0 opened this level (it is not re-tested: the thesis resets the count to 1). The level
     // keeps every further particle i while N_h(i) (2 r_i + skin)^3 <= m V (thesis eq. 2.8), a
     // condition monotone in i for ascending radii.
     const auto first = r.begin() + static_cast<std::ptrdiff_t>(i0) + 1;

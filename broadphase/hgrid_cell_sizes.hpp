@@ -22,7 +22,7 @@ std::vector<double> linearCellSizes(const CostModelPsd& psd, int levels);
 std::vector<double> exponentialCellSizes(const CostModelPsd& psd, int levels);
 /// Constant ratio q of particles per cell, m_{h+1} = q m_h (eqs. 2.45-2.47): bisection on m_1, each
 /// trial sweeping the levels upward and solving m_h(s_h) = q^(h-1) m_1 for s_h; the smallest admissible
-/// m_1 is kept (the top level holds at most its share). q = 1 is the seed's ch. 2.1 hypothesis.
+/// m_1 is kept (the top level holds at most its share). q = 1 is the thesis's ch. 2.1 hypothesis (eq. 2.6).
 /// A PSD that cannot fill L levels (e.g. monodisperse) gets trailing sizes equal to s_L (empty levels).
 std::vector<double> constantRatioCellSizes(const CostModelPsd& psd, int levels, double q = 1.0);
 
@@ -39,7 +39,7 @@ struct AppendixResult {
   const AppendixLevels& optimal() const;
 };
 /// Number of levels L(m) of the appendix procedure for particles-per-cell limit m, on a sample sorted
-/// ascending, with N^c = V_box / (2 r_i + skin)^3 (the seed's [S / (2 r_i)]^d taken as a real number,
+/// ascending, with N^c = V_box / (2 r_i + skin)^3 (the thesis's [S / (2 r_i)]^d taken as a real number,
 /// digest §2.2). O(L log N).
 int appendixLevelCount(std::span<const double> sortedRadii, double boxVolume, double skin, double m);
 /// m(L) for L = 1..maxLevels by bisection on m (L(m) is non-increasing), and the ONL for this K.

@@ -41,7 +41,7 @@ class CostModelPsd {
   /// Sample size N (0 for an analytic PSD).
   Index sampleSize() const;
   double skin() const { return skin_; }
-  /// Smallest interaction diameter 2 r_min + skin (m); the seed's s_0.
+  /// Smallest interaction diameter 2 r_min + skin (m); the thesis's s_0.
   double minDiameter() const { return minDiameter_; }
   /// Largest interaction diameter 2 r_max + skin (m); the top cell size s_L.
   double maxDiameter() const { return maxDiameter_; }

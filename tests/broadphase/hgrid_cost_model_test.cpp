@@ -1,6 +1,6 @@
 // HGrid cost model, cell-size rules, optimiser and K calibration against the reference values of
 // shared/spec/hgrid-and-polydispersity.md §2.3, §2.2, §2.8 and §2.10 (d = 3, nu = 0.7, K = 0.2 unless
-// noted), which reproduce the numbers printed in seed 000 ch. 2.1-2.2.
+// noted), which reproduce the numbers printed in Ogarko's thesis (Univ. Twente) ch. 2.1-2.2.
 #include "broadphase/hgrid_cost_model.hpp"
 
 #include <gtest/gtest.h>
@@ -154,7 +154,7 @@ TEST(HGridCostModel, ConstantMReference) {
   for (std::size_t h = 0; h < sizes.size(); ++h) EXPECT_NEAR(sizes[h], expected[h], 6e-4 * expected[h]) << h;
   for (const LevelCost& l : costBreakdown(psd, sizes, kTD).levels) EXPECT_NEAR(l.perCell, 0.185, 5e-4);
 
-  // Insensitivity: L = 8 or 19 cost about 10% more (:3112-3114).
+  // Insensitivity: L = 8 or 19 cost about 10% more (thesis §2.2.5, constant-m results).
   EXPECT_NEAR(costPerParticle(psd, constantRatioCellSizes(psd, 8), kTD), 12.759, 0.002);
   EXPECT_NEAR(costPerParticle(psd, constantRatioCellSizes(psd, 19), kTD), 12.771, 0.002);
 }
