@@ -40,9 +40,10 @@ void AutoSelect::choose(const OptimiserResult& result, double K) {
   }
   reason_ = fmt::format("{} [K = {:.3g}]", result.summary(), K);
   if (keepLinked) {
-    reason_ = fmt::format("linked-cell T/N={:.4g}, within {:g}x of the best HGrid's (the measured cost of "
-                          "HGrid work, docs/benchmarks/model); {}",
-                          linkedPredicted, hierarchyOverhead_, reason_);
+    reason_ = fmt::format(
+        "linked-cell T/N={:.4g}, within {:g}x of the best HGrid's (the measured cost of "
+        "HGrid work, docs/benchmarks/model); {}",
+        linkedPredicted, hierarchyOverhead_, reason_);
   }
 }
 

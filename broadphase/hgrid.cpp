@@ -4,13 +4,13 @@
 // hgrid_search.cpp, the cell storage in hgrid_storage.cpp.
 #include "broadphase/hgrid.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -57,8 +57,8 @@ void validateCellSizes(std::span<const double> sizes, std::string_view origin) {
   }
   for (std::size_t h = 0; h < sizes.size(); ++h) {
     if (!(std::isfinite(sizes[h]) && sizes[h] > 0.0)) {
-      throw ConfigError(fmt::format("hgrid cell size s_{} ({}) must be positive and finite, got {}", h + 1, origin,
-                                    sizes[h]));
+      throw ConfigError(
+          fmt::format("hgrid cell size s_{} ({}) must be positive and finite, got {}", h + 1, origin, sizes[h]));
     }
     if (h > 0 && !(sizes[h] > sizes[h - 1])) {
       throw ConfigError(fmt::format("hgrid cell sizes ({}) must increase strictly: s_{} = {} after s_{} = {}", origin,
@@ -94,9 +94,10 @@ void HGrid<kMode>::resolveConfig(const SphereView& spheres) {
   if (explicitConfig_) {
     config_ = explicit_;
     if (any && config_.cellSizes.back() < top) {
-      throw ConfigError(fmt::format("hgrid: cell size s_L = {} is smaller than the largest interaction diameter "
-                                    "2 r_max + skin = {}: add a level of at least that size",
-                                    config_.cellSizes.back(), top));
+      throw ConfigError(
+          fmt::format("hgrid: cell size s_L = {} is smaller than the largest interaction diameter "
+                      "2 r_max + skin = {}: add a level of at least that size",
+                      config_.cellSizes.back(), top));
     }
   } else if (!any) {
     config_ = HGridConfig{{box_.lengths().maxCoeff()}, kMode, "default (no spheres)"};  // nothing to optimise
@@ -310,8 +311,8 @@ template <CrossLevel kMode>
 void HGrid<kMode>::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   const Index n = spheres.count();
   if (n != static_cast<Index>(slotOf_.size())) {
-    throw ConfigError(fmt::format("hgrid update: {} spheres, but the index was built for {}: call build()", n,
-                                  slotOf_.size()));
+    throw ConfigError(
+        fmt::format("hgrid update: {} spheres, but the index was built for {}: call build()", n, slotOf_.size()));
   }
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (Index i : moved) {
@@ -405,8 +406,9 @@ std::string HGrid<kMode>::describe() const {
     occupancy += fmt::format("{}{}", sep, lv.end - lv.begin);
     if (lv.end != lv.begin) occupancy += hgrid::storageLetter(lv.kind);
   }
-  std::string text = fmt::format("{} L={} sizes {} (snapped {}); spheres per level {} (d = dense, r = ranked bitmap, h = hashed); {}",
-                                 name(), levels_.size(), nominal, snapped, occupancy, config_.origin);
+  std::string text =
+      fmt::format("{} L={} sizes {} (snapped {}); spheres per level {} (d = dense, r = ranked bitmap, h = hashed); {}",
+                  name(), levels_.size(), nominal, snapped, occupancy, config_.origin);
   if (!note_.empty()) text += "; " + note_;
   if (!overflow_.empty()) text += fmt::format("; {} spheres in the overflow", overflow_.size());
   return text;
@@ -459,7 +461,8 @@ void HGrid<kMode>::validate(const SphereView& spheres) const {
     const std::vector<hgrid::OccupiedCell>& cells = store_.cells();
     for (std::size_t c = lv.cellBegin; c < lv.cellEnd; ++c) {
       const hgrid::OccupiedCell& cell = cells[c];
-      if (cell.begin != expected || cell.end <= cell.begin) fail(fmt::format("level {}: cell ranges not contiguous", h + 1));
+      if (cell.begin != expected || cell.end <= cell.begin)
+        fail(fmt::format("level {}: cell ranges not contiguous", h + 1));
       expected = cell.end;
       if (cell.key != static_cast<std::uint64_t>(cell.c[0]) + lv.nx * static_cast<std::uint64_t>(cell.c[1]) +
                           lv.nxy * static_cast<std::uint64_t>(cell.c[2])) {

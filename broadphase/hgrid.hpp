@@ -123,10 +123,10 @@ class HGrid final : public BroadPhase {
 
   /// Per-level layout after a build (level h = 1..L).
   struct LevelInfo {
-    double nominalSize = 0.0;  ///< s_h (m)
+    double nominalSize = 0.0;                            ///< s_h (m)
     Eigen::Vector3d cellSize = Eigen::Vector3d::Zero();  ///< snapped s'_h per axis (m)
     std::array<int, 3> cells{};
-    Index spheres = 0;         ///< spheres inserted at this level at the last build
+    Index spheres = 0;  ///< spheres inserted at this level at the last build
     Index occupiedCells = 0;
     hgrid::CellStorage storage = hgrid::CellStorage::Empty;  ///< how the level maps cells to slots
   };
@@ -194,7 +194,7 @@ class HGrid final : public BroadPhase {
     std::array<int, 3> n{};
     std::uint64_t nx = 1, nxy = 1;
     bool aliased = false;
-    std::array<std::int64_t, 13> shellDelta{};    // key offsets of the half shell (interior cells)
+    std::array<std::int64_t, 13> shellDelta{};  // key offsets of the half shell (interior cells)
     // Overflow (spheres moved out of their cell by update()): key -> first sphere of a linked list.
     std::size_t overflowSpheres = 0;
     std::vector<OverflowEntry> overflowTable;  // open addressing, power-of-two capacity
@@ -257,16 +257,16 @@ class HGrid final : public BroadPhase {
   hgrid::CellStore store_;     // slot ranges and occupied cells of every level
 
   // Per slot and per sphere.
-  std::vector<Index> sorted_;          // sphere per slot, -1 for a tombstone
-  std::vector<double> packed_;         // x, y, z, r per slot
-  std::vector<Index> slotOf_;          // home slot per sphere
-  std::vector<std::uint16_t> level_;   // 0-based level per sphere
-  std::vector<std::uint64_t> homeKey_; // cell key of the home slot per sphere
+  std::vector<Index> sorted_;           // sphere per slot, -1 for a tombstone
+  std::vector<double> packed_;          // x, y, z, r per slot
+  std::vector<Index> slotOf_;           // home slot per sphere
+  std::vector<std::uint16_t> level_;    // 0-based level per sphere
+  std::vector<std::uint64_t> homeKey_;  // cell key of the home slot per sphere
 
   // Overflow: records in insertion order (swap-removed), per-sphere position and list link.
   std::vector<OverflowRecord> overflow_;
-  std::vector<Index> overflowPos_;     // index into overflow_, -1 when at home
-  std::vector<Index> overflowNext_;    // next sphere in the same overflow cell, -1 ends
+  std::vector<Index> overflowPos_;   // index into overflow_, -1 when at home
+  std::vector<Index> overflowNext_;  // next sphere in the same overflow cell, -1 ends
 
   // Build scratch (kept to avoid allocations).
   std::vector<Index> levelCount_;

@@ -43,7 +43,8 @@ struct AppendixResult {
 /// digest §2.2). O(L log N).
 int appendixLevelCount(std::span<const double> sortedRadii, double boxVolume, double skin, double m);
 /// m(L) for L = 1..maxLevels by bisection on m (L(m) is non-increasing), and the ONL for this K.
-/// The thesis found K in [0.2, 0.45] for its ch. 2.1 grid (§2.1.3, from §2.1.4); 0.3 by default. O(maxLevels * 60 * L log N).
+/// The thesis found K in [0.2, 0.45] for its ch. 2.1 grid (§2.1.3, from §2.1.4); 0.3 by default. O(maxLevels * 60 * L
+/// log N).
 AppendixResult appendixProcedure(std::span<const double> radii, double boxVolume, double skin, double K = 0.3,
                                  int maxLevels = 30);
 

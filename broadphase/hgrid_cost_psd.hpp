@@ -23,7 +23,6 @@
 
 namespace polydem::broadphase {
 
-
 /// The particle-size information the cost model needs, from an analytic distribution or a sample.
 /// Cheap to copy (a sample's sorted radii and prefix sums are shared).
 class CostModelPsd {

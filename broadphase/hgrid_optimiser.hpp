@@ -96,16 +96,15 @@ class OptimiserCache {
   /// optimiseHGrid() with default options but `mode` and `K` on the sample of the spheres' radii in
   /// box.volume(), or the stored result when every input equals the last call's. Throws ConfigError
   /// like CostModelPsd::sample (e.g. no spheres).
-  const OptimiserResult& result(const SphereView& spheres, const Box& box, double skin,
-                                std::optional<CrossLevel> mode, double K);
+  const OptimiserResult& result(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode,
+                                double K);
   /// Whether the last result() call ran the optimiser (false: the stored result was returned).
   bool recomputed() const { return recomputed_; }
   /// Forget the stored result: the next result() call optimises.
   void clear() { valid_ = false; }
 
  private:
-  bool holds(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode,
-             double K) const;
+  bool holds(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode, double K) const;
 
   std::vector<double> radii_;
   Box box_;

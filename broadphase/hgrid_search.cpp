@@ -4,10 +4,10 @@
 // of Twente): same-level half shell and AABB pre-check §2.1.2 (= Ogarko & Luding, Comput. Phys. Commun.
 // 183 (2012) 931), search box eqs. 2.12-2.13 §2.2.2, cost quantities eqs. 2.20-2.30 §2.2.3 (= Krijgsman,
 // Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357).
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "broadphase/hgrid.hpp"
 #include "core/errors.hpp"
@@ -456,11 +456,11 @@ void HGrid<kMode>::findNeighbours(const SphereView& spheres, Index i, double rea
 }
 
 // The class is instantiated in hgrid.cpp; the members defined here are instantiated here.
-#define POLYDEM_HGRID_SEARCH_MEMBERS(kMode)                                                                      \
-  template void HGrid<kMode>::findPairs(const SphereView&, std::vector<Pair>&) const;                           \
-  template void HGrid<kMode>::findNeighbours(const SphereView&, Index, double, std::vector<Index>&) const;      \
-  template HGrid<kMode>::BoxCells HGrid<kMode>::boxOn(const Level&, const double*, double) const;               \
-  template bool HGrid<kMode>::inBox(const BoxCells&, const Level&, const std::int32_t*);                       \
+#define POLYDEM_HGRID_SEARCH_MEMBERS(kMode)                                                                \
+  template void HGrid<kMode>::findPairs(const SphereView&, std::vector<Pair>&) const;                      \
+  template void HGrid<kMode>::findNeighbours(const SphereView&, Index, double, std::vector<Index>&) const; \
+  template HGrid<kMode>::BoxCells HGrid<kMode>::boxOn(const Level&, const double*, double) const;          \
+  template bool HGrid<kMode>::inBox(const BoxCells&, const Level&, const std::int32_t*);                   \
   template Index HGrid<kMode>::overflowHead(const Level&, std::uint64_t) const;
 POLYDEM_HGRID_SEARCH_MEMBERS(CrossLevel::TopDown)
 POLYDEM_HGRID_SEARCH_MEMBERS(CrossLevel::BottomUp)

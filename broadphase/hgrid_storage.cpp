@@ -41,10 +41,14 @@ std::pair<std::uint64_t*, Index*> radixSort(std::uint64_t* key, Index* val, std:
 
 char storageLetter(CellStorage kind) {
   switch (kind) {
-    case CellStorage::Dense: return 'd';
-    case CellStorage::Ranked: return 'r';
-    case CellStorage::Hashed: return 'h';
-    case CellStorage::Empty: break;
+    case CellStorage::Dense:
+      return 'd';
+    case CellStorage::Ranked:
+      return 'r';
+    case CellStorage::Hashed:
+      return 'h';
+    case CellStorage::Empty:
+      break;
   }
   return '-';
 }

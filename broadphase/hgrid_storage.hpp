@@ -57,10 +57,10 @@ struct OccupiedCell {
 
 /// Where one level's cells live in the CellStore's shared buffers.
 struct LevelCells {
-  Index begin = 0, end = 0;                ///< the level's slots
-  std::size_t denseOffset = 0;             ///< into the cell starts (cells + 1 entries)
-  std::size_t bitmapOffset = 0;            ///< into the bitmap and rank directory (one word per 64 cells)
-  std::size_t tableOffset = 0;             ///< into the hash table
+  Index begin = 0, end = 0;      ///< the level's slots
+  std::size_t denseOffset = 0;   ///< into the cell starts (cells + 1 entries)
+  std::size_t bitmapOffset = 0;  ///< into the bitmap and rank directory (one word per 64 cells)
+  std::size_t tableOffset = 0;   ///< into the hash table
   std::uint64_t tableMask = 0;
   int tableShift = 64;
   CellStorage kind = CellStorage::Empty;   // beside tableShift: no padding of its own

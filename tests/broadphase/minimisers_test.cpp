@@ -29,7 +29,12 @@ TEST(NelderMead, FindsTheMinimumOfAQuadratic) {
   const int n = 5;
   std::vector<double> x(n, 2.0);
   long calls = 0;
-  const double f = nelderMead([&](const double* p) { ++calls; return bowl(p, n); }, x, 0.5, 20000, 1e-14);
+  const double f = nelderMead(
+      [&](const double* p) {
+        ++calls;
+        return bowl(p, n);
+      },
+      x, 0.5, 20000, 1e-14);
   EXPECT_NEAR(f, 1.0, 1e-9);
   for (int k = 0; k < n; ++k) EXPECT_NEAR(x[k], static_cast<double>(k) / n, 1e-4) << "k = " << k;
   EXPECT_LE(calls, 20000 + 2 * n + 2);  // the budget, plus at most one step's evaluations
@@ -38,7 +43,12 @@ TEST(NelderMead, FindsTheMinimumOfAQuadratic) {
 TEST(NelderMead, RespectsTheEvaluationBudget) {
   std::vector<double> x{-1.2, 1.0};
   long calls = 0;
-  const double f = nelderMead([&](const double* p) { ++calls; return rosenbrock(p); }, x, 0.3, 50, 0.0);
+  const double f = nelderMead(
+      [&](const double* p) {
+        ++calls;
+        return rosenbrock(p);
+      },
+      x, 0.3, 50, 0.0);
   EXPECT_LE(calls, 50 + 4);  // stops at the first check past the budget (a shrink costs n = 2 more)
   EXPECT_EQ(f, rosenbrock(x.data()));
   EXPECT_LT(f, rosenbrock(std::vector<double>{-1.2, 1.0}.data()));
@@ -67,7 +77,8 @@ TEST(Minimisers, AreDeterministic) {
   std::vector<double> a{-1.2, 1.0}, b{-1.2, 1.0};
   EXPECT_EQ(nelderMead(rosenbrock, a, 0.3, 400, 1e-12), nelderMead(rosenbrock, b, 0.3, 400, 1e-12));
   EXPECT_EQ(a, b);
-  EXPECT_EQ(bfgs(rosenbrock, a, rosenbrock(a.data()), 1e-6, 50, 0.0), bfgs(rosenbrock, b, rosenbrock(b.data()), 1e-6, 50, 0.0));
+  EXPECT_EQ(bfgs(rosenbrock, a, rosenbrock(a.data()), 1e-6, 50, 0.0),
+            bfgs(rosenbrock, b, rosenbrock(b.data()), 1e-6, 50, 0.0));
   EXPECT_EQ(a, b);
 }
 
