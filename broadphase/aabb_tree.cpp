@@ -8,14 +8,10 @@
 #include <cstdlib>
 #include <stdexcept>
 
+#include "broadphase/morton_order.hpp"
 #include "core/errors.hpp"
-#include "core/morton.hpp"
 
 namespace polydem::broadphase {
-
-namespace {
-constexpr int kMortonBits = 21;
-}  // namespace
 
 Index AabbTree::allocate() {
   Index n;
@@ -116,10 +112,7 @@ void AabbTree::doBuild(const SphereView& spheres) {
   nodes_.reserve(static_cast<std::size_t>(2 * n - 1));
   parent_.reserve(nodes_.capacity());
   height_.reserve(nodes_.capacity());
-  keys_.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i)
-    keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
-  std::sort(keys_.begin(), keys_.end());
+  mortonOrder(spheres, box_, keys_);
   root_ = buildRange(spheres, 0, n);
   if (stack_.size() < static_cast<std::size_t>(height()) + 2) stack_.resize(static_cast<std::size_t>(height()) + 2);
 }

@@ -1,38 +1,21 @@
 #pragma once
-// `auto`: asks the HGrid cost model (seed 000 eq. 2.35, hgrid_cost_model.hpp) which structure is
+// `auto`: asks the HGrid cost model (thesis eq. 2.35, hgrid_cost_model.hpp) which structure is
 // cheapest for the spheres it is built on — plain linked cell, Top-Down or Bottom-Up HGrid with
 // optimised levels and cell sizes — then forwards every call to that backend. The optimisation
-// (about 0.1 s for 10^5 spheres) is redone only when the radii, the box or the skin change, so a DEM
-// run that rebuilds its neighbour list every few steps pays for it once.
+// (about 0.1 s for 10^5 spheres) is redone only when the radii, the box, the skin or K change
+// (OptimiserCache, hgrid_optimiser.hpp), so a DEM run that rebuilds its neighbour list every few steps
+// pays for it once. K is the calibrated one (modelCostRatio(), calibrate_k.hpp) unless setCostRatio().
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "broadphase/calibrate_k.hpp"  // modelCostRatio(), for users of this header
 #include "broadphase/hgrid_config.hpp"
+#include "broadphase/hgrid_optimiser.hpp"
 
 namespace polydem::broadphase {
-
-/// K for the cost model on this machine: one cell look-up over one pair test, measured once per process
-/// (calibrate_k.hpp). The HGrid keeps most levels in dense or bitmap-ranked cell arrays, so the dense
-/// look-up time is the representative one (a hashed look-up is 3-5x slower; the HGrid uses hashing
-/// only for very sparse levels, whose cells are rarely visited).
-double modelCostRatio();
-
-/// Optimiser-backed HGrid configurator (HGrid::setConfigurator) that caches its answer: the optimiser
-/// runs again only when the radii, the box or the skin change.
-class CachedGridOptimiser {
- public:
-  HGridConfig operator()(const SphereView& spheres, const Box& box, double skin, CrossLevel mode);
-
- private:
-  std::vector<double> radii_;
-  Box box_;
-  double skin_ = -1.0;
-  CrossLevel mode_ = CrossLevel::TopDown;
-  HGridConfig config_;
-};
 
 class AutoSelect final : public BroadPhase {
  public:
@@ -46,8 +29,8 @@ class AutoSelect final : public BroadPhase {
   const BroadPhase* chosen() const { return chosen_.get(); }
   /// The optimiser's summary: choice, predicted cost per particle, runner-up.
   const std::string& reason() const { return reason_; }
-  /// Cell-access over pair-test cost ratio for the model; default: measured on this machine once per
-  /// process (calibrate_k.hpp).
+  /// Cell-access over pair-test cost ratio K for the model; default: modelCostRatio(), measured on this
+  /// machine once per process (calibrate_k.hpp). A different K optimises again at the next build.
   void setCostRatio(double K) { costRatio_ = K; }
   /// Linked cell is kept unless the best HGrid's predicted work is below the linked cell's by more than
   /// this factor (>= 1). A unit of HGrid work (pair test or cell access, eq. 2.35) costs about twice a
@@ -62,16 +45,14 @@ class AutoSelect final : public BroadPhase {
   void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
 
  private:
-  bool sameInputs(const SphereView& spheres) const;
+  /// Make chosen_ the backend the optimiser's result and the hierarchy overhead pick.
+  void choose(const OptimiserResult& result, double K);
 
   std::unique_ptr<BroadPhase> chosen_;
   std::string reason_;
   std::optional<double> costRatio_;
   double hierarchyOverhead_ = kDefaultHierarchyOverhead;
-  // Inputs of the last optimisation.
-  std::vector<double> radii_;
-  Box lastBox_;
-  double lastSkin_ = -1.0;
+  OptimiserCache optimiser_;
 };
 
 }  // namespace polydem::broadphase

@@ -7,7 +7,8 @@
 // them report bit-identical pair sets (the property suite compares them with EXPECT_EQ).
 //
 // One virtual call per build or query, never one per pair. Buffers are owned by the caller and only
-// grow, so steady-state calls do not allocate.
+// grow, so steady-state calls do not allocate (exception: an HGrid with a configurator, whose
+// configuration is returned by value at every build, see hgrid.hpp).
 #include <compare>
 #include <cstdint>
 #include <span>

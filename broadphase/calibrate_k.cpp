@@ -1,9 +1,9 @@
-// Micro-benchmark for K = t_cell / t_pair (see calibrate_k.hpp; seed 000 eq. 2.35, digest §2.3).
+// Micro-benchmark for K = t_cell / t_pair (see calibrate_k.hpp; thesis eq. 2.35).
 //
 // Both kernels mimic the HGrid's inner loops rather than an idealised version of them: the pair loop
 // runs over slot ranges of packed x, y, z, r of nearby spheres and pushes hits into a pair buffer; the cell
-// loop walks 3 x 3 x 3 search boxes with periodic wrapping, builds the 64-bit key of each cell and
-// reads its slot range (empty or one sphere: 8% of the cells are occupied). The kernels are timed in
+// loop walks 3 x 3 x 3 search boxes with periodic wrapping, builds the index of each cell and reads
+// its slot range (empty or one sphere: 8% of the cells are occupied). The kernels are timed in
 // interleaved rounds and each keeps its fastest round (the usual estimate of the undisturbed cost). Rejected: timing a
 // whole HGrid build and search, which would measure both kernels mixed with everything else and need a regression to
 // split.
@@ -235,9 +235,10 @@ KCalibration measureK() {
   timeKernels(kernels, 10, 0.0025);  // 3 kernels x 10 rounds x 2.5 ms + set-up: about 0.1 s
   KCalibration k;
   k.pairTestSeconds = kernels[0].best;
-  k.cellAccessSeconds = kernels[1].best;
-  k.denseCellAccessSeconds = kernels[2].best;
-  k.K = k.cellAccessSeconds / k.pairTestSeconds;
+  k.hashedCellAccessSeconds = kernels[1].best;
+  k.cellAccessSeconds = kernels[2].best;
+  k.K = k.cellAccessSeconds > 0.0 && k.pairTestSeconds > 0.0 ? k.cellAccessSeconds / k.pairTestSeconds
+                                                             : kDefaultCellOverPairCost;
   k.calibrated = true;
   return k;
 }
@@ -246,5 +247,7 @@ const KCalibration& calibratedK() {
   static const KCalibration cached = measureK();  // thread-safe initialisation
   return cached;
 }
+
+double modelCostRatio() { return calibratedK().K; }
 
 }  // namespace polydem::broadphase

@@ -1,18 +1,23 @@
 #pragma once
 // Hierarchical grid (HGrid) broad phase for polydisperse spheres, Top-Down and Bottom-Up.
 //
-// L regular grids ("levels") with free, strictly increasing cell edges s_1 < ... < s_L (eq. 2.1 of
-// seed 000, shared/seeds/000_3b5cd2443ded9063.txt:899). A sphere goes to the finest level whose cells
-// hold its interaction diameter, h(p) = min{h : s_h >= 2 r_p + skin} (eq. 2.3, seed :933; the skin
-// turns r into the interaction radius r + skin/2, digest §1.3). Pairs on one level come from the
-// own cell plus the 13-cell forward half shell (seed :988-994); pairs across levels from a search box
-// of half-width beta around the sphere on every other level (eqs. 2.12-2.13, seed :2048-2083):
-// Top-Down searches the finer levels j < h, Bottom-Up the coarser levels j > h.
+// References (thesis numbering): V. Ogarko, PhD thesis on polydisperse smooth hard spheres (University of
+// Twente), ch. 2: §2.1.2 (the grid, = Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931) and §2.2.2-
+// §2.2.3 (Top-Down / Bottom-Up and the cost model, = Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1
+// (2014) 357).
+//
+// L regular grids ("levels") with free, strictly increasing cell edges s_1 < ... < s_L (thesis eq. 2.1).
+// A sphere goes to the finest level whose cells hold its interaction diameter,
+// h(p) = min{h : s_h >= 2 r_p + skin} (eq. 2.3; the skin turns r into the interaction radius r + skin/2,
+// digest §1.3). Pairs on one level come from the own cell plus the 13-cell forward half shell (the
+// linked-cell search of §2.1.2); pairs across levels from a search box of half-width beta around the
+// sphere on every other level (eqs. 2.12-2.13, §2.2.2): Top-Down searches the finer levels j < h,
+// Bottom-Up the coarser levels j > h.
 //
 // Search box. A partner q on level j satisfies 2 r_q + skin <= s_j (nominal size), and a pair counts
 // when |x_p - x_q| <= r_p + r_q + skin <= r_p + skin/2 + s_j/2, so per axis
 //   beta = r_p + skin/2 + s_j/2,  cells floor((x - beta)/s'_j) .. floor((x + beta)/s'_j)
-// (the seed's beta = r_p + s_j/2 with r_p -> r_p + skin/2). The range is widened by 1e-9 cell so
+// (the thesis's beta = r_p + s_j/2 with r_p -> r_p + skin/2). The range is widened by 1e-9 cell so
 // that rounding in x / s' can never drop a partner.
 //
 // Cell sizes. Insertion uses the nominal s_h; the mapping uses per-axis snapped edges
@@ -26,23 +31,19 @@
 // Walls clamp indices; a centre exactly at L belongs to the last cell. A search box spanning a whole
 // periodic axis visits each cell once.
 //
-// Storage, O(N) for any box: per level the spheres are sorted by cell key (z-major) into flat slot
-// arrays with a packed x, y, z, r copy, and the occupied cells are listed in key order. A cell maps to
-// its slot range through one of three structures, chosen per level by cells per sphere (digest §1.4
-// and the outlook's cache-friendliness item, seed :7677-7681):
-//   dense   cell-start array, 4 bytes per cell (default: <= 8 cells per sphere);
-//   ranked  occupancy bitmap + rank directory over the sorted cell list, 0.19 bytes per cell (default:
-//           <= 256 cells per sphere); look-ups stay spatially coherent and empty cells cost a bit test;
-//   hashed  open-addressing hash of the occupied cells verifying the full key (sparser levels).
-// With dense and ranked levels a run of cells along x is one contiguous slot range. Nothing is
-// allocated per cell, and steady-state builds reuse every buffer. A search box with more cells than
-// the level has occupied cells tests those cells against the box instead of walking it.
+// Storage, O(N) for any box (hgrid_storage.hpp): per level the spheres are sorted by cell key (z-major)
+// into flat slot arrays, with a packed x, y, z, r copy kept here, and the occupied cells are listed in
+// key order. A cell maps to its slot range through a dense cell-start array, a ranked occupancy bitmap
+// or a hash table, chosen per level by cells per sphere (setStorageLimits). With explicit or default
+// sizes, steady-state builds reuse every buffer; a configurator returns its HGridConfig by value (two
+// small allocations per build). A search box with more cells than the level has occupied cells tests
+// those cells against the box instead of walking it.
 // Measured findPairs time, N = 1e5 random centres at nu = 0.3, one core (dense : ranked : hashed):
 // mono 1 : 1.1 : 1.55; uniform volume omega = 50 with optimised sizes, TD 1 : 1.3 : 2.9, BU
 // 1 : 1.4 : 1.7. The AABB pre-check costs 15-20 % there (setAabbPrecheck(false) to skip it).
 //
 // Work counters (setCounting) are the cost model's T_cd and T_ca per level of the searching sphere
-// (digest §2.3, eqs. 2.20-2.30; seed :2096-2346): per sphere 1 own-cell look-up + one per existing
+// (thesis §2.2.3, eqs. 2.20-2.30; digest §2.3): per sphere 1 own-cell look-up + one per existing
 // half-shell cell (13 with periodic boundaries and >= 3 cells per axis; cells behind a wall do not
 // exist), own-cell pairs with later slots, and per searched level every cell of the clamped search
 // box plus every sphere found in it. Empty levels are skipped and not counted (the model has none).
@@ -53,6 +54,9 @@
 // cell leaves a tombstone (NaN coordinates) in its slot and moves to a per-level overflow hash of
 // linked lists, which findPairs / findNeighbours search like any level. The index is rebuilt when the
 // overflow holds more than max(64, N / 8) spheres, so a cell change costs O(1) amortised.
+//
+// Files: hgrid.cpp (configuration, levels, build, update, reports), hgrid_search.cpp (search boxes,
+// pair search, overflow search, findNeighbours), hgrid_storage.{hpp,cpp} (cell storage).
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -62,6 +66,7 @@
 
 #include "broadphase/broad_phase.hpp"
 #include "broadphase/hgrid_config.hpp"
+#include "broadphase/hgrid_storage.hpp"
 
 namespace polydem::broadphase {
 
@@ -98,6 +103,17 @@ HGridConfig defaultConfig(double minRadius, double maxRadius, double skin, Cross
 /// Throws ConfigError unless the sizes are non-empty, positive, finite and strictly increasing.
 void validateCellSizes(std::span<const double> sizes, std::string_view origin);
 
+/// The 13 forward offsets (dx, dy, dz) of the half shell, in the order linked_cell.cpp uses.
+inline constexpr std::array<std::array<int, 3>, 13> kHalfShell = [] {
+  std::array<std::array<int, 3>, 13> shell{};
+  int count = 0;
+  for (int dz = -1; dz <= 1; ++dz)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx)
+        if (dz > 0 || (dz == 0 && dy > 0) || (dz == 0 && dy == 0 && dx > 0)) shell[count++] = {dx, dy, dz};
+  return shell;
+}();
+
 }  // namespace hgrid
 
 template <CrossLevel kMode>
@@ -107,12 +123,12 @@ class HGrid final : public BroadPhase {
 
   /// Per-level layout after a build (level h = 1..L).
   struct LevelInfo {
-    double nominalSize = 0.0;  ///< s_h (m)
+    double nominalSize = 0.0;                            ///< s_h (m)
     Eigen::Vector3d cellSize = Eigen::Vector3d::Zero();  ///< snapped s'_h per axis (m)
     std::array<int, 3> cells{};
-    Index spheres = 0;         ///< spheres inserted at this level at the last build
+    Index spheres = 0;  ///< spheres inserted at this level at the last build
     Index occupiedCells = 0;
-    char storage = 'h';        ///< 'd' dense cell-start array, 'r' ranked bitmap, 'h' hash table
+    hgrid::CellStorage storage = hgrid::CellStorage::Empty;  ///< how the level maps cells to slots
   };
 
   std::string_view name() const override { return kMode == CrossLevel::TopDown ? "hgrid-td" : "hgrid-bu"; }
@@ -137,17 +153,14 @@ class HGrid final : public BroadPhase {
   /// Cell-range storage per level, by cells per sphere on the level (+ 64 and + 4096 slack): at most
   /// `dense` -> dense cell-start array (4 bytes per cell), else at most `ranked` -> occupancy bitmap with
   /// a rank directory (0.19 bytes per cell), else a hash table of the occupied cells (32 bytes per
-  /// occupied cell). Memory stays O(N) for any finite limits. 0 disables a kind.
-  void setStorageLimits(double dense, double ranked) {
-    denseCellLimit_ = dense;
-    rankedCellLimit_ = ranked;
-  }
-  double denseCellLimit() const { return denseCellLimit_; }
-  double rankedCellLimit() const { return rankedCellLimit_; }
+  /// occupied cell); see hgrid_storage.hpp. Memory stays O(N) for any finite limits. 0 disables a kind.
+  void setStorageLimits(double dense, double ranked) { store_.setLimits(dense, ranked); }
+  double denseCellLimit() const { return store_.denseLimit(); }
+  double rankedCellLimit() const { return store_.rankedLimit(); }
 
-  /// Test the axis-aligned bounding boxes of cross-level candidates before the exact test (seed :1046-1054;
+  /// Test the axis-aligned bounding boxes of cross-level candidates before the exact test (thesis §2.1.2;
   /// on by default). Pair sets are identical either way; with SIMD-free sphere tests it rarely pays off
-  /// (digest §1.7), see hgrid.hpp for measurements.
+  /// (digest §1.7); measurements at the top of this file.
   void setAabbPrecheck(bool on) { aabbPrecheck_ = on; }
   bool aabbPrecheck() const { return aabbPrecheck_; }
 
@@ -169,38 +182,23 @@ class HGrid final : public BroadPhase {
   void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
 
  private:
-  struct HashEntry {
-    std::uint64_t key;
-    Index begin, end;
-  };
   struct OverflowEntry {
     std::uint64_t key;
     Index head;
   };
-  struct Level {
+  // A level: its geometry, where its cells live in store_ (the LevelCells base: slots [begin, end),
+  // storage kind, offsets, occupied cells [cellBegin, cellEnd)) and its overflow.
+  struct Level : hgrid::LevelCells {
     double nominal = 0.0;
     std::array<double, 3> size{}, inv{};
     std::array<int, 3> n{};
     std::uint64_t nx = 1, nxy = 1;
-    Index begin = 0, end = 0;  // slots
-    bool dense = false, aliased = false;
-    bool ranked = false;                          // occupancy bitmap + rank directory (else hashed)
-    std::size_t denseOffset = 0;                  // into cellStart_ (n cells + 1 entries)
-    std::size_t bitmapOffset = 0;                 // into bitmap_ and rank_ (one word per 64 cells)
-    std::size_t tableOffset = 0;                  // into table_
-    std::uint64_t tableMask = 0;
-    int tableShift = 64;
-    std::size_t cellBegin = 0, cellEnd = 0;       // into cells_
-    std::array<std::int64_t, 13> shellDelta{};    // key offsets of the half shell (interior cells)
+    bool aliased = false;
+    std::array<std::int64_t, 13> shellDelta{};  // key offsets of the half shell (interior cells)
     // Overflow (spheres moved out of their cell by update()): key -> first sphere of a linked list.
     std::size_t overflowSpheres = 0;
     std::vector<OverflowEntry> overflowTable;  // open addressing, power-of-two capacity
     std::size_t overflowUsed = 0;              // keys in overflowTable
-  };
-  struct OccupiedCell {
-    std::uint64_t key;
-    std::int32_t c[3];
-    Index begin, end;
   };
   struct OverflowRecord {
     Index sphere;
@@ -214,11 +212,6 @@ class HGrid final : public BroadPhase {
   std::uint64_t keyOf(const Level& lv, const double* x) const;
   std::array<std::int32_t, 3> cellOf(const Level& lv, const double* x) const;
 
-  struct SlotRange {
-    Index begin, end;
-  };
-  SlotRange rangeOf(const Level& lv, std::uint64_t key) const;
-  Index startOf(const Level& lv, std::uint64_t key) const;
   template <bool kCount>
   void sameLevel(int h, std::vector<Pair>& out) const;
   template <bool kCount, bool kAabb>
@@ -254,8 +247,6 @@ class HGrid final : public BroadPhase {
   Configurator configurator_;
   HGridConfig config_;
   std::string note_;  // how config_ came about (e.g. "default", "added top level")
-  double denseCellLimit_ = 8.0;
-  double rankedCellLimit_ = 256.0;
   bool aabbPrecheck_ = true;
 
   // Geometry and layout.
@@ -263,29 +254,23 @@ class HGrid final : public BroadPhase {
   std::array<double, 3> length_{}, halfLength_{};
   std::vector<Level> levels_;
   std::vector<int> occupied_;  // 0-based levels holding spheres at the last build, ascending
-  std::vector<Index> cellStart_;
-  std::vector<HashEntry> table_;
-  std::vector<std::uint64_t> bitmap_;
-  std::vector<std::uint32_t> rank_;  // occupied cells of the level before each bitmap word
-  std::vector<OccupiedCell> cells_;
+  hgrid::CellStore store_;     // slot ranges and occupied cells of every level
 
   // Per slot and per sphere.
-  std::vector<Index> sorted_;          // sphere per slot, -1 for a tombstone
-  std::vector<double> packed_;         // x, y, z, r per slot
-  std::vector<Index> slotOf_;          // home slot per sphere
-  std::vector<std::uint16_t> level_;   // 0-based level per sphere
-  std::vector<std::uint64_t> homeKey_; // cell key of the home slot per sphere
+  std::vector<Index> sorted_;           // sphere per slot, -1 for a tombstone
+  std::vector<double> packed_;          // x, y, z, r per slot
+  std::vector<Index> slotOf_;           // home slot per sphere
+  std::vector<std::uint16_t> level_;    // 0-based level per sphere
+  std::vector<std::uint64_t> homeKey_;  // cell key of the home slot per sphere
 
   // Overflow: records in insertion order (swap-removed), per-sphere position and list link.
   std::vector<OverflowRecord> overflow_;
-  std::vector<Index> overflowPos_;     // index into overflow_, -1 when at home
-  std::vector<Index> overflowNext_;    // next sphere in the same overflow cell, -1 ends
+  std::vector<Index> overflowPos_;   // index into overflow_, -1 when at home
+  std::vector<Index> overflowNext_;  // next sphere in the same overflow cell, -1 ends
 
   // Build scratch (kept to avoid allocations).
   std::vector<Index> levelCount_;
   std::vector<Index> byLevel_;
-  std::vector<std::uint64_t> keyA_, keyB_;
-  std::vector<Index> idxA_, idxB_;
 
   mutable std::vector<Counters> levelCounters_;
 };

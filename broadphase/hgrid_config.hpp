@@ -1,12 +1,13 @@
 #pragma once
 // Parameters of the hierarchical grid, shared by the HGrid backend and its cost-model optimiser.
-// Seed 000 ch. 2.1-2.2 (digest: shared/spec/hgrid-and-polydispersity.md §1-§2).
+// V. Ogarko, PhD thesis (University of Twente), §2.1-§2.2 = Ogarko & Luding, Comput. Phys. Commun. 183
+// (2012) 931 and Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357 (digest §1-§2).
 #include <string>
 #include <vector>
 
 namespace polydem::broadphase {
 
-/// Which levels a particle searches besides its own (seed 000 ch. 2.2.2).
+/// Which levels a particle searches besides its own (thesis §2.2.2).
 enum class CrossLevel {
   TopDown,  ///< a particle searches the finer levels j < h (pairs found from the larger member)
   BottomUp  ///< a particle searches the coarser levels j > h (pairs found from the smaller member)

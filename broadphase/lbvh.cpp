@@ -9,13 +9,12 @@
 #include <limits>
 #include <stdexcept>
 
+#include "broadphase/morton_order.hpp"
 #include "core/errors.hpp"
-#include "core/morton.hpp"
 
 namespace polydem::broadphase {
 
 namespace {
-constexpr int kMortonBits = 21;  // per axis: 63-bit keys
 
 // Karras 2012, Sec. 4: delta(i, j) = length of the longest common prefix of the keys of leaves i and
 // j, -1 outside [0, m); equal keys fall back to the common prefix of the indices (32 more bits).
@@ -98,11 +97,7 @@ void Lbvh::doBuild(const SphereView& spheres) {
   quality_ = builtQuality_ = 0.0;
   if (n == 0) return;
 
-  // Morton order; ties broken by index so the tree does not depend on the sort's stability.
-  keys_.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i)
-    keys_[static_cast<std::size_t>(i)] = {mortonKey(spheres.centre.col(i).data(), box_, kMortonBits), i};
-  std::sort(keys_.begin(), keys_.end());
+  mortonOrder(spheres, box_, keys_);  // ties broken by index: the tree does not depend on the sort's stability
   for (Index s = 0; s < n; ++s) {
     const Index i = keys_[static_cast<std::size_t>(s)].second;
     sorted_[static_cast<std::size_t>(s)] = i;

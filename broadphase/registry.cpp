@@ -8,6 +8,7 @@
 #include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
 #include "broadphase/hgrid.hpp"
+#include "broadphase/hgrid_optimiser.hpp"
 #include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
 #include "broadphase/sweep_and_prune.hpp"

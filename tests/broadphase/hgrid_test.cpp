@@ -40,8 +40,8 @@ HGridConfig sizes(std::vector<double> s) { return HGridConfig{std::move(s), Cros
 constexpr std::array<std::array<double, 2>, 4> kStorage = {{{0.0, 0.0}, {0.0, 1000.0}, {1000.0, 0.0}, {8.0, 256.0}}};
 
 // ---------------------------------------------------------------------------------------------------
-// Worked example of seed 000 Fig. 2.1/2.7 (digest §1.8): s = (3, 8), B at (10.3, 14.4) with r = 4,
-// C at (14, 14) with r = 1.5.
+// Worked example of Ogarko's thesis (Univ. Twente), Figs. 2.1/2.7 (digest §1.8): s = (3, 8), B at
+// (10.3, 14.4) with r = 4, C at (14, 14) with r = 1.5.
 
 TEST(HGridWorkedExample, SearchBoxesOfEquation212) {
   const std::vector<double> s = {3.0, 8.0};
