@@ -341,7 +341,7 @@ void HardSphereSystem::rebuildNeighbourhoods() {
   exitsAtRebuild_ = total_.exits;
   pairsAtRebuild_ = pairWork_;
   const double mu1 = options_.neighbourhoodScale - 1.0;
-  const double floor = skinFloor_ * rmin, cap = std::max(skinFloor_, options_.skinCap) * rmin;
+  const double floor = skinFloor_ * rmin;
   // The broad phase needs periodic edges of at least 4 neighbourhood radii.
   double rmax = 0.0;
   for (const State& s : state_) rmax = std::max(rmax, radiusAt(s));
@@ -359,9 +359,7 @@ void HardSphereSystem::rebuildNeighbourhoods() {
     const State& s = state_[static_cast<std::size_t>(i)];
     Hood& h = hood_[static_cast<std::size_t>(i)];
     const double r = radiusAt(s);
-    const double skin = options_.speedScaledFloor
-                            ? std::max(std::min(r, options_.skinCap * rmin), floor * std::pow(rmin / r, 1.5))
-                            : std::clamp(r, floor, cap);
+    const double skin = std::max(std::min(r, options_.skinCap * rmin), floor * std::pow(rmin / r, 1.5));
     h.skin = std::min(mu1 * skin, skinLimit);
     h.radius = r + h.skin;
     for (int k = 0; k < 3; ++k) h.centre[k] = s.x[k];
@@ -379,7 +377,7 @@ void HardSphereSystem::rebuildNeighbourhoods() {
         time(), e.what()));
   }
   broad_->findPairs(view, pairScratch_);
-  if (options_.ownExitIndex) hoodGrid_.build(box_, nbCentre_, nbRadius_);
+  hoodGrid_.build(box_, nbCentre_, nbRadius_);
   for (Hood& h : hood_) h.size = 0;
   for (const broadphase::Pair& p : pairScratch_) {
     ++hood_[static_cast<std::size_t>(p.i)].size;
@@ -454,15 +452,8 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
   }
   for (int k = 0; k < 3; ++k) hood.centre[k] = s.x[k];
   nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
-  if (options_.ownExitIndex) {
-    hoodGrid_.move(i, s.x);
-    hoodGrid_.overlapping(i, scratch_);
-  } else {
-    const SphereView view{nbCentre_, nbRadius_};
-    const Index moved[1] = {i};
-    broad_->update(view, moved);
-    broad_->findNeighbours(view, i, 0.0, scratch_);
-  }
+  hoodGrid_.move(i, s.x);
+  hoodGrid_.overlapping(i, scratch_);
   // Reverse entries: drop i from lists it left, add it to lists it entered (both lists sorted).
   const std::span<const Index> old = neighboursOf(i);
   added_.clear();
@@ -883,7 +874,7 @@ int HardSphereSystem::skinTrend() const {
   // Narrow distributions (size ratio < 2) keep the exits-per-collision rule: both rules leave their
   // skins at the floor at phi 0.5, and it keeps the trajectories the jamming results of docs/edmd.md
   // and tests/edmd were validated with.
-  if (!options_.balanceSkinByWork || sizeRatio_ < 2.0) {
+  if (sizeRatio_ < 2.0) {
     const double exits = exitRatioSinceRebuild();
     return exits > 0.8 ? 1 : (exits < 0.2 ? -1 : 0);
   }
@@ -1029,10 +1020,11 @@ void HardSphereSystem::restoreState(const SystemState& state) {
   recentNext_ = 0;
   // The exit index answers "which neighbourhoods overlap this one" (a sorted set, a function of the
   // centres and radii alone), so building it afresh gives the same answers as the incrementally moved one.
+  // The broad phase is rebuilt too, so that describeBroadPhase() reports the restored neighbourhoods.
   if (n > 0) {
     const SphereView view{nbCentre_, nbRadius_};
     broad_->build(view, box_, 0.0);
-    if (options_.ownExitIndex) hoodGrid_.build(box_, nbCentre_, nbRadius_);
+    hoodGrid_.build(box_, nbCentre_, nbRadius_);
   }
   resetSchedule();
 }

@@ -17,10 +17,10 @@
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
-//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp; the shared broad phase's
-//   update() + findNeighbours() with SystemOptions::ownExitIndex = false, same lists), so the work per
-//   event does not depend on the size ratio. The broad phase builds the lists at global rebuilds.
-//   rho_i is fixed between global rebuilds ("epochs") because broadphase update() may not change radii;
+//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp, O(1) moves, the broad
+//   phase's pair predicate), so the work per event does not depend on the size ratio. The shared broad
+//   phase builds the lists at global rebuilds (build() + findPairs(); its update() is not used).
+//   rho_i is fixed between global rebuilds ("epochs") so that an exit moves one neighbourhood in the grid;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
 //   skin_i = (mu - 1) max(min(O_i, kappa O_min), f O_min (O_min / O_i)^(3/2)): proportional for small
@@ -57,8 +57,9 @@
 namespace polydem::edmd {
 
 struct SystemOptions {
-  /// Broad phase indexing the neighbourhoods (registry name). Must have a cheap update(): hgrid-td and
-  /// hgrid-bu move a sphere across cells in O(1); linked-cell re-sorts everything on a cell change.
+  /// Broad phase that builds the neighbour lists at global rebuilds (registry name). The engine calls only
+  /// its build() and findPairs() (and, for the overlap check of the input, on the spheres themselves);
+  /// exits are answered by hood_grid.hpp, so the backend's update() is never used and need not be cheap.
   std::string broadPhase = "hgrid-td";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
@@ -70,23 +71,18 @@ struct SystemOptions {
   /// spheres keep the capped skin and their lists do not grow with f. Equal to the rule below for
   /// monodisperse systems and, with skinCap >= 1, whenever f = 1.
   double skinFloor = 1.0;
-  /// false: the earlier rule skin_i = (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min), which gives every
-  /// sphere at least f O_min (kept for comparisons; benchmarks/edmd_bench.cpp).
-  bool speedScaledFloor = true;
   /// Adapt f at global rebuilds from the fraction of events that are neighbourhood exits (seed
   /// :3944-3953): x1.3 when exits cost too much, /1.15 when they are cheap (never below skinFloor). Small,
   /// fast spheres of wide size distributions then get skins of a few smallest radii.
   bool adaptiveSkin = true;
-  /// How "too much" is judged. true: balance the work, W = exitWork x exits / (pair predictions), grow
-  /// above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as much as some tens
-  /// of pair predictions, and a skin that minimises exit work ~ 1/f plus list work ~ f^3 spends about as
-  /// much on both. false: the earlier rule, grow above 0.8 exits per collision, shrink below 0.2, which at
-  /// low density drives the skins of uniform-volume omega = 50 mixtures to lists of ~300 neighbours.
-  /// Applies to size ratios >= 2; narrower distributions always use the earlier rule.
-  bool balanceSkinByWork = true;
-  /// Cost of one exit in pair predictions for balanceSkinByWork. Scanned at phi 0.5 (benchmarks/
-  /// edmd_bench.cpp, docs/edmd.md): uniform volume omega = 50 is flat within noise over 30-100 and
-  /// slower at 10 and 300; omega = 10 is 1.5x slower at 30 than at 60-100.
+  /// How "too much" is judged, for size ratios >= 2: balance the work, W = exitWork x exits / (pair
+  /// predictions), grow above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as
+  /// much as some tens of pair predictions, and a skin that minimises exit work ~ 1/f plus list work ~ f^3
+  /// spends about as much on both. Narrower distributions grow above 0.8 exits per collision and shrink
+  /// below 0.2 (both rules leave their skins at the floor there).
+  /// Cost of one exit in pair predictions. Scanned at phi 0.5 (benchmarks/edmd_bench.cpp,
+  /// docs/edmd-results.md): uniform volume omega = 50 is flat within noise over 30-100 and slower at 10 and
+  /// 300; omega = 10 is 1.5x slower at 30 than at 60-100.
   double exitWork = 100.0;
   /// Floor of the surface separation speed after a collision (m/s), against zero-delay re-collisions of
   /// grazing pairs whose approach speed is below round-off. Far below any physical speed.
@@ -97,10 +93,6 @@ struct SystemOptions {
   /// watchdogFactor x (mean collisions per particle requested) + watchdogSlack collisions.
   double watchdogFactor = 1000.0;
   std::int64_t watchdogSlack = 100000;
-  /// Answer neighbourhood exits from EDMD's own multi-level grid of neighbourhoods (edmd/hood_grid.hpp,
-  /// O(1) moves) instead of the broad phase's update() + findNeighbours(); the lists are the same (one
-  /// pair predicate), only faster. The broad phase still builds the lists at global rebuilds.
-  bool ownExitIndex = true;
   /// Renumber the particles internally along a Morton curve at every global rebuild and, at a
   /// synchronisation, once this many collisions per particle have passed since the last renumbering
   /// (0 = only at rebuilds). Neighbours then sit close in memory: the prediction loop is bound by loads
@@ -356,7 +348,7 @@ class HardSphereSystem {
   Eigen::VectorXd nbRadius_;
   std::vector<Index> added_, removed_;
   std::unique_ptr<broadphase::BroadPhase> broad_;
-  HoodGrid hoodGrid_;  // used when options_.ownExitIndex
+  HoodGrid hoodGrid_;  // answers the exits: which neighbourhoods overlap a re-centred one
   std::vector<Index> scratch_;
   std::vector<broadphase::Pair> pairScratch_;
   bool rebuildPending_ = false;
