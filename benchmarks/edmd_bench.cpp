@@ -7,7 +7,7 @@
 // edmd::runAtFixedDensity does. Uniform-volume cases first run 10 collisions per particle untimed (the
 // skin adaptation settles). Counters: coll/s per CPU second, events/exits/checks per collision, nb (mean
 // list length), f (skin floor), p (reduced pressure: two codes that claim the same trajectory must print
-// the same p and counts). Results: docs/edmd.md.
+// the same p and counts). Results: docs/edmd-results.md.
 // Run (Release): build/benchmarks/polydem_edmd_bench --benchmark_filter='mono10k/|uv10_10k/|uv50_20k/'
 // (omega = 50 compresses for minutes; POLYDEM_EDMD_BENCH_START_2=FILE reads a start written by
 // `polydem jam -n 20000 --dist uniform-volume --omega 50 --schedule 1e-2 --target-phi 0.5 -o FILE

@@ -66,7 +66,7 @@ inline bool HardSphereSystem::keepEarlier(double tau, double tc, double horizon,
 }
 
 void HardSphereSystem::predict(Index i) {
-  // Algorithm 5 (seed :3141-3190), NNL mode.
+  // Donev 2006 (thesis), Algorithm 5, near-neighbour-list mode.
   const std::size_t ui = static_cast<std::size_t>(i);
   const State& si = state_[ui];
   const std::span<const Index> list = neighboursOf(i);
@@ -141,7 +141,7 @@ void HardSphereSystem::predict(Index i) {
         tau = -(q.b + root) / q.a;
       if (q.c <= 0.0) [[unlikely]]
         tau = pairCollisionDelay(q, approachRate(r, u, sd) < 0.0);
-      // Accept before both the best so far and j's own event (seed :3173-3180), as a branch-free
+      // Accept before both the best so far and j's own event (Donev 2006, Algorithm 5, step 4), as a branch-free
       // running minimum: whether a pair wins is as unpredictable as the sign of b.
       const double tc = clock + tau;
       const bool take = keepEarlier(tau, tc, events[j].time, bestTime);
@@ -295,7 +295,7 @@ void HardSphereSystem::process(Index i) {
       prefetchList(j);
       // j's heap key is already the current time. Predicting i first cannot claim j (the horizon test
       // t_c < t_e(j) = now is strict), then j predicts at once instead of being popped as a check: the
-      // seed's "check after binary collision" (:3106-3108) without its two heap operations.
+      // "check after binary collision" of Donev 2006, Algorithm 2, step 8, without its two heap operations.
       event_[static_cast<std::size_t>(j)] = Event{clock_, i, EventKind::PartnerCheck};
       predict(i);
       predict(j);

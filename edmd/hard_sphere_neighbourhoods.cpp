@@ -207,7 +207,7 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
 
 int HardSphereSystem::skinTrend() const {
   // Narrow distributions (size ratio < 2) keep the exits-per-collision rule: both rules leave their
-  // skins at the floor at phi 0.5, and it keeps the trajectories the jamming results of docs/edmd.md
+  // skins at the floor at phi 0.5, and it keeps the trajectories the jamming results of docs/edmd-results.md
   // and tests/edmd were validated with.
   if (sizeRatio_ < 2.0) {
     const double exits = exitRatioSinceRebuild();

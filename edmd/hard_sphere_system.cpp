@@ -171,7 +171,7 @@ void HardSphereSystem::advanceAll() {
 }
 
 void HardSphereSystem::resetSchedule() {
-  // Algorithm 4 (seed :3127-3131): every particle gets a check now; the pops re-predict everything.
+  // Donev 2006 (thesis), Algorithm 4: every particle gets a check now; the pops re-predict everything.
   for (Event& e : event_) e = Event{clock_, -1, EventKind::Check};
   queue_.assign(std::vector<double>(event_.size(), clock_));
   sameTimeEvents_ = 0;
