@@ -138,7 +138,7 @@ inline double jammingDensityEstimate(double phi, double pressure) {
 }
 
 /// Radius factor that reopens a packing jammed at phi_J to a reduced pressure of about `pressure`: the
-/// free-volume law p ~ d / (1 - phi / phi_J) (d = 3; Donev 2006, thesis, eq. 1.2) puts pressure P at
+/// free-volume law p ~ d / (1 - phi / phi_J) (d = 3; Donev 2006, thesis, eqs. 1.2 and 9.1) puts pressure P at
 /// phi = phi_J (1 - 3/P), i.e. radii x (1 - 3/P)^(1/3). Holds for packings jammed well beyond P (reduced
 /// pressure >= 10 P). Throws ConfigError unless pressure > 3 and finite.
 double reopenRadiusFactor(double pressure);

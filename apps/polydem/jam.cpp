@@ -550,8 +550,7 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
              system.maxOverlapSeen());
   if (net.backbone > 0 && net.isostaticExcess() < 0 && s.pressure >= 1e9) {
     // A hypostatic backbone at high pressure: floppy modes left by too fast a late stage (Donev 2006,
-    // thesis, the discussion of the final growth rate in the statistics of jammed packings; docs/edmd-results.md,
-    // pressure-leak test against the final growth rate).
+    // thesis, §9.3.1; docs/edmd-results.md, pressure-leak test against the final growth rate).
     fmt::print(
         "note: the backbone is hypostatic: the late stages ran too fast for it to find its contacts; in our runs "
         "packings passed `polydem analyze --leak-test` when four decades of pressure beyond p ~ 1e4 ran at 3e-5 or "

@@ -108,7 +108,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   const LoadTestResult unjammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
   EXPECT_FALSE(unjammedIp.jammed) << unjammedIp.verdict;
   EXPECT_GT(unjammedIp.displaced, 0);
-  // Subpacking rounds (seed Algorithm 13): the intact packing needs one round; the holed one sets its
+  // Subpacking rounds (Donev 2006, thesis, Algorithm 13): the intact packing needs one round; the holed one sets its
   // displaced spheres aside round by round, and a jammed remainder plus the set-aside spheres is the backbone.
   LoadTestOptions rounds;
   rounds.subpackingRounds = 6;
@@ -143,7 +143,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
     }
     EXPECT_NE(b.verdict.find("cell deformation"), std::string::npos) << b.verdict;
   }
-  // Sequential random loading (seed Algorithm 14): the intact packing barely moves; the holed one moves
+  // Sequential random loading (Donev 2006, thesis, Algorithm 14): the intact packing barely moves; the holed one moves
   // beyond the limits, and the motion it reports keeps every pair disjoint (the scaling stops at the first
   // true collision; IPM and simplex solutions are feasible to about 1e-9).
   LoadTestOptions sequential;
