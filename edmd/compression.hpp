@@ -140,8 +140,10 @@ inline double jammingDensityEstimate(double phi, double pressure) {
 /// Radius factor that reopens a packing jammed at phi_J to a reduced pressure of about `pressure`: the
 /// free-volume law p ~ d / (1 - phi / phi_J) (d = 3; Donev 2006, thesis, eqs. 1.2 and 9.1) puts pressure P at
 /// phi = phi_J (1 - 3/P), i.e. radii x (1 - 3/P)^(1/3). Holds for packings jammed well beyond P (reduced
-/// pressure >= 10 P). Throws ConfigError unless pressure > 3 and finite.
+/// pressure >= kReopenMargin P). Throws ConfigError unless pressure > 3 and finite.
 double reopenRadiusFactor(double pressure);
+/// A packing reopened to P must have been jammed beyond kReopenMargin x P for reopenRadiusFactor to hold.
+inline constexpr double kReopenMargin = 10.0;
 
 /// Run the compression on `system` (velocities must not all be zero, at least 2 spheres). Calls `onBlock`
 /// after every block and `atBoundary` where it goes on. `state` non-null: continue from it (begun) and keep

@@ -295,7 +295,7 @@ void loadInputStart(JamRun& run) {
   if (opt.reopen > 0.0) {
     // edmd::reopenRadiusFactor holds for packings jammed well beyond the pressure reopened to.
     const std::optional<double> p = io::numericAttribute(run.start, "reduced_pressure", opt.input);
-    if (p && !(*p > 10.0 * opt.reopen)) {
+    if (p && !(*p > edmd::kReopenMargin * opt.reopen)) {
       throw ConfigError(fmt::format("--reopen {}: the input {} has reduced pressure {:g}, not well above it",
                                     opt.reopen, opt.input, *p));
     }
