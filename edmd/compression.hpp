@@ -96,7 +96,7 @@ struct CompressionState {
 /// The plateau test: once the block pressure is within kPlateauBand of maxResolvablePressure(), a window
 /// (at least kPlateauBlocks blocks and kPlateauGrowth / Gamma collisions per particle) whose largest
 /// pressure is not kPlateauRise x that of the window before ends the run ("pressure plateau at
-/// round-off"). Near jamming ln p rises by ~2 Gamma per collision per particle (docs/edmd.md runs), so a
+/// round-off"). Near jamming ln p rises by ~2 Gamma per collision per particle (docs/edmd-results.md runs), so a
 /// compressing packing gains ~e^4 per window, whatever the block size; at the plateau the window maxima
 /// agree within noise (docs/edmd.md "Termination").
 inline constexpr std::int64_t kPlateauBlocks = 100;
