@@ -7,7 +7,7 @@
 // edmd::runAtFixedDensity does. Uniform-volume cases first run 10 collisions per particle untimed (the
 // skin adaptation settles). Counters: coll/s per CPU second, events/exits/checks per collision, nb (mean
 // list length), f (skin floor), p (reduced pressure: two codes that claim the same trajectory must print
-// the same p and counts). Results: docs/edmd.md.
+// the same p and counts). Results: docs/edmd-results.md.
 // Run (Release): build/benchmarks/polydem_edmd_bench --benchmark_filter='mono10k/|uv10_10k/|uv50_20k/'
 // (omega = 50 compresses for minutes; POLYDEM_EDMD_BENCH_START_2=FILE reads a start written by
 // `polydem jam -n 20000 --dist uniform-volume --omega 50 --schedule 1e-2 --target-phi 0.5 -o FILE
@@ -48,11 +48,9 @@ struct Start {
   Eigen::VectorXd radius;
 };
 
-// `earlierRules`: compress with the skin rules from before speedScaledFloor / balanceSkinByWork, so that
-// the start (and with it the whole run) is bit for bit the one of the code before them.
-const Start& startAtHalf(int which, bool earlierRules) {
+const Start& startAtHalf(int which) {
   static std::map<int, Start> cache;
-  const int key = 2 * which + (earlierRules ? 1 : 0);
+  const int key = which;
   auto found = cache.find(key);
   if (found != cache.end()) return found->second;
   const Case& c = kCases[which];
@@ -81,11 +79,7 @@ const Start& startAtHalf(int which, bool earlierRules) {
     Start s{rsa.box, rsa.position, edmd::maxwellBoltzmannVelocities(rsa.radius, seed), rsa.radius};
     return cache.emplace(key, std::move(s)).first->second;
   }
-  edmd::SystemOptions systemOptions;
-  systemOptions.speedScaledFloor = !earlierRules;
-  systemOptions.balanceSkinByWork = !earlierRules;
-  edmd::HardSphereSystem system(rsa.box, rsa.position, rsa.radius, edmd::maxwellBoltzmannVelocities(rsa.radius, seed),
-                                systemOptions);
+  edmd::HardSphereSystem system(rsa.box, rsa.position, rsa.radius, edmd::maxwellBoltzmannVelocities(rsa.radius, seed));
   edmd::CompressionOptions options;
   options.schedule = {{1e-2, edmd::HardSphereSystem::kInfinity}};
   options.targetPackingFraction = 0.5;
@@ -97,14 +91,12 @@ const Start& startAtHalf(int which, bool earlierRules) {
 void benchFixedDensity(benchmark::State& state) {
   const int which = static_cast<int>(state.range(0));
   const double perIteration = static_cast<double>(state.range(1));
-  const Start& start = startAtHalf(which, state.range(3) == 1);
+  const Start& start = startAtHalf(which);
   edmd::SystemOptions options;
   if (state.range(2) > 0) options.neighbourhoodScale = 1.0 + 0.01 * static_cast<double>(state.range(2));
-  options.speedScaledFloor = state.range(3) != 1;
-  options.balanceSkinByWork = state.range(3) != 1 && state.range(3) != 10;  // 10: only the speed-scaled floor
   if (state.range(4) > 0) options.exitWork = static_cast<double>(state.range(4));
-  if (state.range(3) >= 2 && state.range(3) != 10) options.adaptiveSkin = false;
-  if (state.range(3) >= 3 && state.range(3) != 10) options.skinFloor = static_cast<double>(state.range(3)) / 2.0;
+  if (state.range(3) >= 2) options.adaptiveSkin = false;
+  if (state.range(3) >= 3) options.skinFloor = static_cast<double>(state.range(3)) / 2.0;
   edmd::HardSphereSystem system(start.box, start.position, start.radius, start.velocity, options);
   const Index n = system.count();
   const std::int64_t block = static_cast<std::int64_t>(perIteration * n);
@@ -138,10 +130,10 @@ void benchFixedDensity(benchmark::State& state) {
 
 int main(int argc, char** argv) {
   // Args: case (0 mono 10k, 1 UV omega 10 10k, 2 UV omega 50 20k), collisions per particle per iteration,
-  // neighbourhood scale mu as 100 (mu - 1) (0: the default), skin rule: 0 the default, 1 the earlier one
-  // (SystemOptions::speedScaledFloor and balanceSkinByWork false), 2 = no skin adaptation, k >= 3: no
-  // adaptation with skin floor f = k / 2, 10 = speedScaledFloor only; SystemOptions::exitWork (0: the
-  // default).
+  // neighbourhood scale mu as 100 (mu - 1) (0: the default), skin rule: 0 the default, 2 = no skin
+  // adaptation, k >= 3: no adaptation with skin floor f = k / 2; SystemOptions::exitWork (0: the default).
+  // The earlier skin rules (modes 1 and 10) were removed with their SystemOptions switches; see
+  // docs/edmd-results.md.
   benchmark::RegisterBenchmark("edmdFixedDensity/mono10k", benchFixedDensity)
       ->Args({0, 20, 0, 0, 0})
       ->Iterations(5)
@@ -150,32 +142,20 @@ int main(int argc, char** argv) {
       ->ArgsProduct({{0}, {20}, {30, 60}, {0}, {0}})
       ->Iterations(5)
       ->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("edmdFixedDensity/mono10k_oldrules", benchFixedDensity)
-      ->Args({0, 20, 0, 1, 0})
-      ->Iterations(5)
-      ->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k", benchFixedDensity)
-      ->ArgsProduct({{1}, {10}, {0}, {0, 1}, {0}})
+      ->ArgsProduct({{1}, {10}, {0}, {0}, {0}})
       ->Iterations(5)
       ->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k", benchFixedDensity)
-      ->ArgsProduct({{2}, {4}, {0}, {0, 1}, {0}})
+      ->ArgsProduct({{2}, {4}, {0}, {0}, {0}})
       ->Iterations(5)
       ->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_phi03", benchFixedDensity)
-      ->ArgsProduct({{3}, {2}, {0}, {0, 1, 2, 6, 12}, {0}})
+      ->ArgsProduct({{3}, {2}, {0}, {0, 2, 6, 12}, {0}})
       ->Iterations(3)
       ->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_exitwork", benchFixedDensity)
       ->ArgsProduct({{2}, {4}, {0}, {0}, {10, 30, 60, 300}})
-      ->Iterations(5)
-      ->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k_floor_only", benchFixedDensity)
-      ->Args({1, 10, 0, 10, 0})
-      ->Iterations(5)
-      ->Unit(benchmark::kMillisecond);
-  benchmark::RegisterBenchmark("edmdFixedDensity/uv50_20k_floor_only", benchFixedDensity)
-      ->Args({2, 4, 0, 10, 0})
       ->Iterations(5)
       ->Unit(benchmark::kMillisecond);
   benchmark::RegisterBenchmark("edmdFixedDensity/uv10_10k_exitwork", benchFixedDensity)

@@ -298,4 +298,13 @@ Eigen::Matrix3Xd maxwellBoltzmannVelocities(const Eigen::VectorXd& radius, std::
   return v;
 }
 
+double reopenRadiusFactor(double pressure) {
+  if (!(pressure > 3.0) || !std::isfinite(pressure)) {
+    throw ConfigError(fmt::format("reopening to reduced pressure {}: must be finite and > 3 (the free-volume law "
+                                  "p ~ 3 / (1 - phi / phi_J) has no solution below)",
+                                  pressure));
+  }
+  return std::cbrt(1.0 - 3.0 / pressure);
+}
+
 }  // namespace polydem::edmd

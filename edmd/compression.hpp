@@ -3,17 +3,17 @@
 // growth as the pressure rises, rescaling the kinetic energy at every synchronisation, until a target
 // reduced pressure (jamming) or a target packing fraction is reached.
 //
-// Seed 001 (shared/seeds/001_3d36564c50aaa2ef.txt): LS algorithm :78-97; fast initial growth against
-// crystallisation, slow final stage for collective jamming :12454-12458; the d = 4 "mix" schedule
-// (a decade slower per few decades of pressure) :12434-12436; thermostat by velocity rescaling
-// :2579-2586; free-volume estimate of the jamming density phi_J = phi / (1 - d/p), eq. 1.2, :344-351.
+// A. Donev, "Jammed Packings of Hard Particles", PhD thesis, Princeton University (2006): the LS algorithm,
+// §1.1.1; fast initial growth against crystallisation, slow final stage for collective jamming, §11.3;
+// the d = 4 "mix" schedule (a decade slower per few decades of pressure), Figure 11.3; thermostat by
+// velocity rescaling, §3.2.4; free-volume estimate of the jamming density phi_J = phi / (1 - d/p), eq. 1.2.
 // Digest shared/spec/event-driven-and-jamming.md §2.8 [rec] default 3D schedule, §2.11 driver.
 //
 // Rates are dimensionless: Gamma = (dO_max/dt) / v_th, the growth speed of the largest radius in units
 // of the thermal speed v_th = sqrt(sum m v^2 / sum m), which the thermostat holds at 1. Every radius grows
-// in proportion (seed 000 eq. 3.22), i.e. the engine's relative rate is g = Gamma v_th / O_max.
-// (Seed 000 quotes Gamma against v0 = sqrt(2E/(3M)) = v_th / sqrt(3); seed 001 against the "thermal
-// speed" of the Skoge-Donev code, which is v_th.)
+// in proportion (Ogarko, thesis, University of Twente, eq. 3.22), i.e. the engine's relative rate is g = Gamma v_th / O_max.
+// (Ogarko's thesis quotes Gamma against v0 = sqrt(2E/(3M)) = v_th / sqrt(3); Donev 2006 against the
+// "thermal speed" of the Skoge-Donev code, which is v_th.)
 #include <cstdint>
 #include <functional>
 #include <limits>
@@ -96,7 +96,7 @@ struct CompressionState {
 /// The plateau test: once the block pressure is within kPlateauBand of maxResolvablePressure(), a window
 /// (at least kPlateauBlocks blocks and kPlateauGrowth / Gamma collisions per particle) whose largest
 /// pressure is not kPlateauRise x that of the window before ends the run ("pressure plateau at
-/// round-off"). Near jamming ln p rises by ~2 Gamma per collision per particle (docs/edmd.md runs), so a
+/// round-off"). Near jamming ln p rises by ~2 Gamma per collision per particle (docs/edmd-results.md runs), so a
 /// compressing packing gains ~e^4 per window, whatever the block size; at the plateau the window maxima
 /// agree within noise (docs/edmd.md "Termination").
 inline constexpr std::int64_t kPlateauBlocks = 100;
@@ -132,10 +132,18 @@ inline constexpr double kMaxRate = 1.0;   ///< faster: spheres grow faster than 
 /// centre-of-mass drift removed (the thermostat rescales them afterwards). Deterministic in `seed`.
 Eigen::Matrix3Xd maxwellBoltzmannVelocities(const Eigen::VectorXd& radius, std::uint64_t seed);
 
-/// Free-volume estimate of the jamming density, phi / (1 - d/p) with d = 3 (seed 001 eq. 1.2).
+/// Free-volume estimate of the jamming density, phi / (1 - d/p) with d = 3 (Donev 2006, thesis, eq. 1.2).
 inline double jammingDensityEstimate(double phi, double pressure) {
   return pressure > 3.0 ? phi / (1.0 - 3.0 / pressure) : std::numeric_limits<double>::quiet_NaN();
 }
+
+/// Radius factor that reopens a packing jammed at phi_J to a reduced pressure of about `pressure`: the
+/// free-volume law p ~ d / (1 - phi / phi_J) (d = 3; Donev 2006, thesis, eqs. 1.2 and 9.1) puts pressure P at
+/// phi = phi_J (1 - 3/P), i.e. radii x (1 - 3/P)^(1/3). Holds for packings jammed well beyond P (reduced
+/// pressure >= kReopenMargin P). Throws ConfigError unless pressure > 3 and finite.
+double reopenRadiusFactor(double pressure);
+/// A packing reopened to P must have been jammed beyond kReopenMargin x P for reopenRadiusFactor to hold.
+inline constexpr double kReopenMargin = 10.0;
 
 /// Run the compression on `system` (velocities must not all be zero, at least 2 spheres). Calls `onBlock`
 /// after every block and `atBoundary` where it goes on. `state` non-null: continue from it (begun) and keep

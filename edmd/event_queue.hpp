@@ -1,12 +1,12 @@
 #pragma once
-// Indexed (4-ary) min-heap holding exactly one key (event time) per particle, seed 001 §3.2.2
-// (shared/seeds/001_3d36564c50aaa2ef.txt:2960-2963, :3110-3111): heap size = N, operations top, and
+// Indexed (4-ary) min-heap holding exactly one key (event time) per particle, Donev 2006
+// (thesis), §3.4.1 and Algorithm 2, step 9: heap size = N, operations top, and
 // update of an arbitrary particle's key (the partner of a collision, the claimed particle of a
 // prediction) in O(log N). Nodes carry (key, particle) side by side so sifting touches one array, and
 // the array starts 3 nodes before a 64-byte boundary so that the 4 children of every node (16-byte
 // nodes 4k+1..4k+4) fill exactly one cache line: a sift level is one line, not two.
 // Rejected: a calendar queue (faster for huge N, but its bucket width must track a collision rate that
-// spans twelve decades during a compression) and several events per particle (seed :2963-2968).
+// spans twelve decades during a compression) and several events per particle (Donev 2006, §3.4.1).
 #include <cstddef>
 #include <vector>
 

@@ -1,26 +1,26 @@
 #pragma once
 // Event-driven molecular dynamics (EDMD) of hard spheres with radii growing in proportion to their size,
-// the engine of the Lubachevsky-Stillinger compression (seed 001 ch. 3, shared/seeds/001_3d36564c50aaa2ef.txt;
-// digest shared/spec/event-driven-and-jamming.md §1).
+// the engine of the Lubachevsky-Stillinger compression (A. Donev, "Jammed Packings of Hard Particles", PhD
+// thesis, Princeton University (2006), ch. 3; digest shared/spec/event-driven-and-jamming.md §1).
 //
-// Design (seed Algorithms 2-5, :3062-3190):
+// Design (Donev 2006, §3.4, Algorithms 2-5):
 // * Every particle lives at its own time: its state (x, v, t_i, radius at the last synchronisation) is
-//   advanced only when it takes part in an event (:2400-2404). The global clock is reset to 0 at every
-//   synchronisation (Algorithm 3, :3114-3125), which keeps |t| small near jamming.
-// * One predicted event per particle in an indexed 4-ary heap (:2960-2963): binary collision, check
+//   advanced only when it takes part in an event (Donev 2006, §3.2.2). The global clock is reset to 0 at every
+//   synchronisation (Donev 2006, Algorithm 3), which keeps |t| small near jamming.
+// * One predicted event per particle in an indexed 4-ary heap (Donev 2006, §3.4.1): binary collision, check
 //   after a partner's collision, plain check (prediction invalidated by a third party), exit from the
 //   bounding neighbourhood, hard-wall collision. Predictions accept a collision with j only before both
-//   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (:3173-3180); a claimed particle's
-//   previous partner is lazily relabelled a check at its old time (:3184-3190). The strict test is
+//   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (Donev 2006, Algorithm 5, step 4); a claimed particle's
+//   previous partner is lazily relabelled a check at its old time (Algorithm 5, step 5). The strict test is
 //   what stops a just-collided pair from being re-predicted at zero delay by the first of the two.
-// * Near-neighbour lists with bounding neighbourhoods (§1.11, :2786-2823): neighbourhood i is a sphere
+// * Near-neighbour lists with bounding neighbourhoods (Donev 2006, §3.3.2; digest §1.11): neighbourhood i is a sphere
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
-//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp; the shared broad phase's
-//   update() + findNeighbours() with SystemOptions::ownExitIndex = false, same lists), so the work per
-//   event does not depend on the size ratio. The broad phase builds the lists at global rebuilds.
-//   rho_i is fixed between global rebuilds ("epochs") because broadphase update() may not change radii;
+//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp, O(1) moves, the broad
+//   phase's pair predicate), so the work per event does not depend on the size ratio. The shared broad
+//   phase builds the lists at global rebuilds (build() + findPairs(); its update() is not used).
+//   rho_i is fixed between global rebuilds ("epochs") so that an exit moves one neighbourhood in the grid;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
 //   skin_i = (mu - 1) max(min(O_i, kappa O_min), f O_min (O_min / O_i)^(3/2)): proportional for small
@@ -31,10 +31,10 @@
 //   event, state and neighbourhood are prefetched one event ahead, and a collision partner's data
 //   before the collision arithmetic (process()).
 // * Growth: O_i(t) = O_i(0) (1 + g t) with one relative rate g (1/s), so dO_i/dt is proportional to O_i
-//   and the size distribution keeps its shape (seed 000 eq. 3.22; digest §2.3).
+//   and the size distribution keeps its shape (V. Ogarko, PhD thesis, University of Twente, eq. 3.22; digest §2.3).
 // * Collisions: kinematics.hpp (robust quadratic, elastic rule with the growth term).
 // * Pressure: collisional virial over a window, p = PV/(N k_B T) = 1 + sum(|r_ij| J) / (2 int K dt)
-//   (digest §2.5; equal to the seed-000 form Z = 1 + sum |dp| l / (2 E dt), eq. 3.33). Wall collisions add
+//   (digest §2.5; equal to Ogarko's thesis form Z = 1 + sum |dp| l / (2 E dt), eq. 3.33). Wall collisions add
 //   O_i J (the distance from the centre to the contact point), which makes p the pressure on the walls.
 // * Masses proportional to O^3 (uniform density), scaled so the mean mass is 1.
 //
@@ -57,8 +57,9 @@
 namespace polydem::edmd {
 
 struct SystemOptions {
-  /// Broad phase indexing the neighbourhoods (registry name). Must have a cheap update(): hgrid-td and
-  /// hgrid-bu move a sphere across cells in O(1); linked-cell re-sorts everything on a cell change.
+  /// Broad phase that builds the neighbour lists at global rebuilds (registry name). The engine calls only
+  /// its build() and findPairs() (and, for the overlap check of the input, on the spheres themselves);
+  /// exits are answered by hood_grid.hpp, so the backend's update() is never used and need not be cheap.
   std::string broadPhase = "hgrid-td";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
@@ -67,26 +68,22 @@ struct SystemOptions {
   /// Floor of the skin in units of the smallest radius: skin_i = (mu - 1) max(min(O_i, cap O_min),
   /// f O_min (O_min / O_i)^(3/2)), f = skinFloor initially. The floor covers the flight of fast small
   /// spheres; their thermal speed, and with it the room they need, falls as m^(-1/2) ~ O^(-3/2), so large
-  /// spheres keep the capped skin and their lists do not grow with f. Equal to the rule below for
-  /// monodisperse systems and, with skinCap >= 1, whenever f = 1.
+  /// spheres keep the capped skin and their lists do not grow with f. Equal to the earlier rule
+  /// (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min) (removed, docs/edmd.md) for monodisperse systems and,
+  /// with skinCap >= 1, whenever f = 1.
   double skinFloor = 1.0;
-  /// false: the earlier rule skin_i = (mu - 1) clamp(O_i, f O_min, max(f, cap) O_min), which gives every
-  /// sphere at least f O_min (kept for comparisons; benchmarks/edmd_bench.cpp).
-  bool speedScaledFloor = true;
-  /// Adapt f at global rebuilds from the fraction of events that are neighbourhood exits (seed
-  /// :3944-3953): x1.3 when exits cost too much, /1.15 when they are cheap (never below skinFloor). Small,
+  /// Adapt f at global rebuilds from the fraction of events that are neighbourhood exits (Donev
+  /// 2006, §3.6.1, automatic tuning of mu_cutoff): x1.3 when exits cost too much, /1.15 when they are cheap (never below skinFloor). Small,
   /// fast spheres of wide size distributions then get skins of a few smallest radii.
   bool adaptiveSkin = true;
-  /// How "too much" is judged. true: balance the work, W = exitWork x exits / (pair predictions), grow
-  /// above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as much as some tens
-  /// of pair predictions, and a skin that minimises exit work ~ 1/f plus list work ~ f^3 spends about as
-  /// much on both. false: the earlier rule, grow above 0.8 exits per collision, shrink below 0.2, which at
-  /// low density drives the skins of uniform-volume omega = 50 mixtures to lists of ~300 neighbours.
-  /// Applies to size ratios >= 2; narrower distributions always use the earlier rule.
-  bool balanceSkinByWork = true;
-  /// Cost of one exit in pair predictions for balanceSkinByWork. Scanned at phi 0.5 (benchmarks/
-  /// edmd_bench.cpp, docs/edmd.md): uniform volume omega = 50 is flat within noise over 30-100 and
-  /// slower at 10 and 300; omega = 10 is 1.5x slower at 30 than at 60-100.
+  /// How "too much" is judged, for size ratios >= 2: balance the work, W = exitWork x exits / (pair
+  /// predictions), grow above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as
+  /// much as some tens of pair predictions, and a skin that minimises exit work ~ 1/f plus list work ~ f^3
+  /// spends about as much on both. Narrower distributions grow above 0.8 exits per collision and shrink
+  /// below 0.2 (both rules leave their skins at the floor there).
+  /// Cost of one exit in pair predictions. Scanned at phi 0.5 (benchmarks/edmd_bench.cpp,
+  /// docs/edmd-results.md): uniform volume omega = 50 is flat within noise over 30-100 and slower at 10 and
+  /// 300; omega = 10 is 1.5x slower at 30 than at 60-100.
   double exitWork = 100.0;
   /// Floor of the surface separation speed after a collision (m/s), against zero-delay re-collisions of
   /// grazing pairs whose approach speed is below round-off. Far below any physical speed.
@@ -97,10 +94,6 @@ struct SystemOptions {
   /// watchdogFactor x (mean collisions per particle requested) + watchdogSlack collisions.
   double watchdogFactor = 1000.0;
   std::int64_t watchdogSlack = 100000;
-  /// Answer neighbourhood exits from EDMD's own multi-level grid of neighbourhoods (edmd/hood_grid.hpp,
-  /// O(1) moves) instead of the broad phase's update() + findNeighbours(); the lists are the same (one
-  /// pair predicate), only faster. The broad phase still builds the lists at global rebuilds.
-  bool ownExitIndex = true;
   /// Renumber the particles internally along a Morton curve at every global rebuild and, at a
   /// synchronisation, once this many collisions per particle have passed since the last renumbering
   /// (0 = only at rebuilds). Neighbours then sit close in memory: the prediction loop is bound by loads
@@ -207,7 +200,7 @@ class HardSphereSystem {
   Event nextEvent() const;
 
   /// Advance every particle to the current time, fold the elapsed time into the radii, reset the clock
-  /// to 0 and re-predict every event (seed Algorithms 3-4). O(N x neighbours).
+  /// to 0 and re-predict every event (Donev 2006, thesis, Algorithms 3-4). O(N x neighbours).
   void synchronise();
   /// Multiply all velocities by `factor` (synchronises; the thermostat).
   void scaleVelocities(double factor);
@@ -356,7 +349,7 @@ class HardSphereSystem {
   Eigen::VectorXd nbRadius_;
   std::vector<Index> added_, removed_;
   std::unique_ptr<broadphase::BroadPhase> broad_;
-  HoodGrid hoodGrid_;  // used when options_.ownExitIndex
+  HoodGrid hoodGrid_;  // answers the exits: which neighbourhoods overlap a re-centred one
   std::vector<Index> scratch_;
   std::vector<broadphase::Pair> pairScratch_;
   bool rebuildPending_ = false;

@@ -1,10 +1,11 @@
 #pragma once
-// The index of bounding neighbourhoods that answers the one query of a neighbourhood exit (seed 001
-// Algorithm 10, shared/seeds/001_3d36564c50aaa2ef.txt:3462-3523; digest §1.11): which neighbourhoods
+// The index of bounding neighbourhoods that answers the one query of a neighbourhood exit (Donev 2006,
+// thesis, §3.4.7, Algorithm 10; digest §1.11): which neighbourhoods
 // overlap the re-centred neighbourhood of sphere i. A multi-level grid: level l holds the spheres with
 // radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least twice the level's largest radius, each cell a
 // doubly linked list, so a move is O(1) and a query visits the cells within r_i + (largest radius of the
-// level) on every level (the top-down search of seed 000 §2.2.3).
+// level) on every level (the top-down search of Ogarko's thesis §2.2.3;
+// Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357).
 //
 // Why EDMD keeps its own index instead of the shared broad phase's update() + findNeighbours() (STYLE
 // §4): an exit moves one sphere, and the shared HGrid parks every sphere that changed cell in an

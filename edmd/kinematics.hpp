@@ -3,8 +3,8 @@
 // bounding-neighbourhood exit times, wall collision times, and the elastic collision rule with growth.
 //
 // Pair collision (digest shared/spec/event-driven-and-jamming.md §1.7, reconstructed there and
-// cross-checked against the public Skoge-Donev code; seed 001 states "first positive root of a
-// quadratic", shared/seeds/001_3d36564c50aaa2ef.txt:2415-2416). With r = x_i - x_j (minimum image),
+// cross-checked against the public Skoge-Donev code; Donev 2006 (thesis), §3.2.2, states "first positive
+// root of a quadratic"). With r = x_i - x_j (minimum image),
 // u = v_i - v_j, contact distance s = O_i + O_j and its growth rate sd = gamma_i + gamma_j:
 //   |r + u tau|^2 = (s + sd tau)^2   <=>   a tau^2 + 2 b tau + c = 0,
 //   a = u.u - sd^2,  b = r.u - s sd,  c = r.r - s^2.
@@ -13,10 +13,10 @@
 //
 // Touching or overlapping pairs (c <= 0, which round-off produces right after a collision) are decided
 // by the sign of the surface approach rate hdot = (r.u)/|r| - sd: approaching -> collide now (overlap
-// recovery, seed :3653-3661), separating -> only the growth root. collide() uses the very same
+// recovery, Donev 2006, §3.5.1), separating -> only the growth root. collide() uses the very same
 // approachRate(), so a pair it has just processed is never predicted to collide again at zero delay.
 //
-// Elastic collision of growing spheres (seed :8948-8967, :9007-9031; digest §1.8): momentum is exchanged
+// Elastic collision of growing spheres (Donev 2006, §6.3.2; digest §1.8): momentum is exchanged
 // along n = r/|r| only and the relative normal velocity of the two *surfaces*, hdot = u.n - sd, is
 // reversed. The impulse J = 2 mu (-hdot) (mu = reduced mass) does the work of the growth agent, so every
 // collision of growing spheres injects energy; the thermostat removes it.

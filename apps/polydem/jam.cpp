@@ -1,11 +1,14 @@
 // polydem jam: Lubachevsky-Stillinger compression of hard spheres to jamming (or to a target packing
 // fraction) with the event-driven engine of edmd/, then the contact network and rattlers of the result.
+// runJam() reads as the run: settings (or a checkpoint's), checks, the start, the compression, an optional
+// run at fixed density, the report, the output and the exit code.
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <set>
 
@@ -13,6 +16,7 @@
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/equivalent_option.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/jam.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
@@ -28,37 +32,6 @@
 namespace polydem::app {
 
 namespace {
-
-struct JamOptions {
-  DistributionSpec dist;
-  std::string fractionKind = "volume";
-  Index count = 1000;
-  double initialPhi = 0.3;
-  std::string boundaries = "periodic";
-  std::string sampling = "systematic";
-  std::uint64_t seed = 1;
-  std::string input;
-  double reopen = 0.0;
-  std::string schedule = edmd::formatSchedule(edmd::CompressionOptions{}.schedule);
-  double targetPressure = 1e12;
-  double targetPhi = 0.0;
-  double maxCollisions = 1e7;
-  double block = 0.0;
-  std::string broadPhase = "hgrid-td";
-  double neighbourhoodScale = 1.4;
-  double skinCap = 4.0;
-  double contactGap = 0.0;
-  double runCollisions = 0.0;
-  std::string output;
-  bool writeVelocities = false;
-  double progressSeconds = 2.0;
-  std::string equivalent = "none";
-  std::string eosCsv;
-  std::string checkpoint;
-  double checkpointInterval = 600.0;
-  std::string resume;
-  std::int64_t stopAfterBlocks = 0;
-};
 
 // Options that do not touch the trajectory: the only ones --resume accepts (everything else comes from the
 // checkpoint, so a resumed run is the run that was interrupted).
@@ -77,134 +50,9 @@ CLI::Validator openUnitInterval() {
       "FINITE in (0, 1)");
 }
 
-// ---------------------------------------------------------------------------------------------------
-// Checkpoint (io::Checkpoint of kind "jam"): the settings, the start record (ids, attributes), the
-// compression state and the engine state (edmd::SystemState), each stored bit-exact.
-
-constexpr std::int64_t kCheckpointFormat = 1;
-
-std::vector<std::int64_t> countsVector(const edmd::EventCounts& c) {
-  return {c.collisions, c.wallCollisions, c.checks, c.exits, c.rebuilds, c.relocatedLists, c.missed};
-}
-
-edmd::EventCounts countsFrom(const io::Checkpoint& c, const std::string& name) {
-  const std::vector<std::int64_t>& v = c.integers(name);
-  if (v.size() != 7)
-    throw InputError(fmt::format("{}: checkpoint entry {}: expected 7 counts", c.source.string(), name));
-  return {v[0], v[1], v[2], v[3], v[4], v[5], v[6]};
-}
-
-void putSettings(io::Checkpoint& c, const JamOptions& o) {
-  c.text["schedule"] = o.schedule;
-  c.text["broad_phase"] = o.broadPhase;
-  c.text["output"] = o.output;
-  c.text["eos_csv"] = o.eosCsv;
-  c.text["checkpoint"] = o.checkpoint;
-  c.text["input"] = o.input;
-  c.putScalar("target_pressure", o.targetPressure);
-  c.putScalar("target_phi", o.targetPhi);
-  c.putScalar("max_collisions", o.maxCollisions);
-  c.putScalar("block", o.block);
-  c.putScalar("neighbourhood_scale", o.neighbourhoodScale);
-  c.putScalar("skin_cap", o.skinCap);
-  c.putScalar("contact_gap", o.contactGap);
-  c.putScalar("run_collisions", o.runCollisions);
-  c.putScalar("progress_seconds", o.progressSeconds);
-  c.putScalar("checkpoint_interval", o.checkpointInterval);
-  c.putInteger("write_velocities", o.writeVelocities ? 1 : 0);
-}
-
-void getSettings(const io::Checkpoint& c, JamOptions& o) {
-  o.schedule = c.string("schedule");
-  o.broadPhase = c.string("broad_phase");
-  o.output = c.string("output");
-  o.eosCsv = c.string("eos_csv");
-  o.checkpoint = c.string("checkpoint");
-  o.input = c.string("input");
-  o.targetPressure = c.scalar("target_pressure");
-  o.targetPhi = c.scalar("target_phi");
-  o.maxCollisions = c.scalar("max_collisions");
-  o.block = c.scalar("block");
-  o.neighbourhoodScale = c.scalar("neighbourhood_scale");
-  o.skinCap = c.scalar("skin_cap");
-  o.contactGap = c.scalar("contact_gap");
-  o.runCollisions = c.scalar("run_collisions");
-  o.progressSeconds = c.scalar("progress_seconds");
-  o.checkpointInterval = c.scalar("checkpoint_interval");
-  o.writeVelocities = c.integerScalar("write_velocities") != 0;
-}
-
-void putEngine(io::Checkpoint& c, const edmd::SystemState& s) {
-  c.real["engine.position"] = s.position;
-  c.real["engine.velocity"] = s.velocity;
-  c.real["engine.radius"] = s.radius;
-  c.real["engine.mass"] = s.mass;
-  c.integer["engine.external"] = s.external;
-  c.real["engine.hood_centre"] = s.hoodCentre;
-  c.real["engine.hood_radius"] = s.hoodRadius;
-  c.real["engine.hood_skin"] = s.hoodSkin;
-  c.integer["engine.hood_begin"] = s.hoodBegin;
-  c.integer["engine.hood_size"] = s.hoodSize;
-  c.integer["engine.hood_capacity"] = s.hoodCapacity;
-  c.integer["engine.neighbours"] = s.neighbours;
-  c.real["engine.scalars"] = {s.growth,          s.elapsed,           s.skinFloor,     s.sizeRatio,
-                              s.kinetic,         s.maxOverlap,        s.window.virial, s.window.kineticIntegral,
-                              s.window.duration, s.lastCollision.time};
-  c.integer["engine.counters"] = {s.collisionsAtSort, s.collisionsAtRebuild, s.exitsAtRebuild,  s.pairsAtRebuild,
-                                  s.pairWork,         s.window.collisions,   s.lastCollision.i, s.lastCollision.j};
-  c.integer["engine.total"] = countsVector(s.total);
-}
-
-edmd::SystemState getEngine(const io::Checkpoint& c) {
-  edmd::SystemState s;
-  s.position = c.reals("engine.position");
-  s.velocity = c.reals("engine.velocity");
-  s.radius = c.reals("engine.radius");
-  s.mass = c.reals("engine.mass");
-  s.external = c.integers("engine.external");
-  s.hoodCentre = c.reals("engine.hood_centre");
-  s.hoodRadius = c.reals("engine.hood_radius");
-  s.hoodSkin = c.reals("engine.hood_skin");
-  s.hoodBegin = c.integers("engine.hood_begin");
-  s.hoodSize = c.integers("engine.hood_size");
-  s.hoodCapacity = c.integers("engine.hood_capacity");
-  s.neighbours = c.integers("engine.neighbours");
-  const std::vector<double>& r = c.reals("engine.scalars");
-  const std::vector<std::int64_t>& k = c.integers("engine.counters");
-  if (r.size() != 10 || k.size() != 8) {
-    throw InputError(
-        fmt::format("{}: checkpoint entries engine.scalars/engine.counters have the wrong length", c.source.string()));
-  }
-  s.growth = r[0];
-  s.elapsed = r[1];
-  s.skinFloor = r[2];
-  s.sizeRatio = r[3];
-  s.kinetic = r[4];
-  s.maxOverlap = r[5];
-  s.window.virial = r[6];
-  s.window.kineticIntegral = r[7];
-  s.window.duration = r[8];
-  s.lastCollision.time = r[9];
-  s.collisionsAtSort = k[0];
-  s.collisionsAtRebuild = k[1];
-  s.exitsAtRebuild = k[2];
-  s.pairsAtRebuild = k[3];
-  s.pairWork = k[4];
-  s.window.collisions = k[5];
-  s.lastCollision.i = static_cast<Index>(k[6]);
-  s.lastCollision.j = static_cast<Index>(k[7]);
-  s.total = countsFrom(c, "engine.total");
-  return s;
-}
-
 std::string fmtPressure(double p) { return std::isfinite(p) ? fmt::format("{:.4g}", p) : std::string("-"); }
 
-}  // namespace
-
-Runner addJam(CLI::App& app) {
-  auto opt = std::make_shared<JamOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "jam", "Lubachevsky-Stillinger compression of hard spheres to jamming (event-driven), with contact statistics");
+void addJamOptions(CLI::App* cmd, JamOptions* opt) {
   addDistributionOptions(*cmd, opt->dist, opt->fractionKind);
   cmd->add_option("-n,--count", opt->count, "number of particles (random sequential addition start; at least 2)")
       ->check(finiteIn(0.0, 1e9))
@@ -283,439 +131,534 @@ Runner addJam(CLI::App& app) {
                   "(testing) after this many blocks in all, act as if interrupted: checkpoint, output, exit 130")
       ->check(finiteIn(1.0, 9e18));
 
-  return [opt, cmd]() -> int {
-    installInterruptHandlers();
-    const bool resuming = !opt->resume.empty();
-    io::Checkpoint saved;
-    if (resuming) {
-      for (const CLI::Option* o : cmd->get_options()) {
-        if (o->count() > 0 && !kResumeOverrides.count(o->get_name())) {
-          throw ConfigError(fmt::format(
-              "{} cannot be combined with --resume: the checkpoint holds every setting of the run, so that the "
-              "resumed run is the interrupted one (only --progress, --checkpoint-interval and --stop-after-blocks "
-              "may be given)",
-              o->get_name()));
-        }
-      }
-      const JamOptions overrides = *opt;
-      saved = io::readCheckpoint(opt->resume, "jam");
-      if (saved.integerScalar("format") != kCheckpointFormat) {
-        throw InputError(fmt::format("{}: jam checkpoint format {} (this polydem reads format {})", opt->resume,
-                                     saved.integerScalar("format"), kCheckpointFormat));
-      }
-      getSettings(saved, *opt);
-      opt->resume = overrides.resume;
-      opt->checkpoint = opt->resume;  // a resumed run keeps checkpointing into the file it resumed from
-      opt->stopAfterBlocks = overrides.stopAfterBlocks;
-      if (cmd->count("--progress")) opt->progressSeconds = overrides.progressSeconds;
-      if (cmd->count("--checkpoint-interval")) opt->checkpointInterval = overrides.checkpointInterval;
-    } else {
-      finishDistributionSpec(opt->dist, opt->fractionKind);
-    }
-    edmd::CompressionOptions copt;
-    copt.schedule = edmd::parseSchedule(opt->schedule);
-    copt.targetPressure = opt->targetPressure;
-    copt.targetPackingFraction = opt->targetPhi;
-    copt.maxCollisionsPerParticle = opt->maxCollisions;
-    copt.blockCollisionsPerParticle = opt->block;
-    if (!resuming) {
-      if (opt->reopen > 0.0 && opt->input.empty()) throw ConfigError("--reopen needs --input (a jammed packing)");
-      if (!opt->input.empty() && opt->equivalent != "none") {
-        throw ConfigError("--equivalent applies to the random start (--dist); it cannot be combined with --input");
-      }
-      if (opt->block != 0.0 && opt->block < 1.0) {
-        throw ConfigError(
-            fmt::format("--block {}: must be 0 (automatic) or at least 1 collision per particle "
-                        "(smaller blocks spend the run synchronising)",
-                        opt->block));
-      }
-    }
-    if (cmd->count("--checkpoint-interval") && opt->checkpoint.empty()) {
-      throw ConfigError("--checkpoint-interval needs --checkpoint FILE");
-    }
+}
 
-    // Every output is checked before any computation (hours of work must not end in "cannot write"),
-    // against every input and against each other.
-    std::vector<std::filesystem::path> inputs;
-    if (!opt->input.empty()) inputs.emplace_back(opt->input);
-    std::vector<std::filesystem::path> outputsSoFar;
-    auto checkOutput = [&](const std::string& path, const char* what, bool mayBeResumeFile) {
-      if (path.empty()) return;
-      std::vector<std::filesystem::path> against = inputs;
-      if (resuming && !mayBeResumeFile) against.emplace_back(opt->resume);
-      io::checkOutputPath(path, what, against);
-      for (const auto& other : outputsSoFar) {
-        if (io::samePath(path, other)) {
-          throw ConfigError(fmt::format("{} '{}': the same file as another output of this run", what, path));
-        }
-      }
-      outputsSoFar.emplace_back(path);
-    };
-    checkOutput(opt->output, "-o/--output", false);
-    checkOutput(opt->eosCsv, "--eos-csv", false);
-    checkOutput(opt->checkpoint, "--checkpoint", true);
+// ---------------------------------------------------------------------------------------------------
+// The run: one record that its parts fill in, in the order runJam() calls them.
 
-    io::ParticleData start;
-    std::string origin;
-    std::unique_ptr<edmd::HardSphereSystem> systemPtr;
-    edmd::CompressionState cstate;
-    edmd::SystemOptions sopt;
-    sopt.broadPhase = opt->broadPhase;
-    sopt.neighbourhoodScale = opt->neighbourhoodScale;
-    sopt.skinCap = opt->skinCap;
-    std::int64_t eosOffset = -1;
-    if (resuming) {
-      const std::vector<double>& lengths = saved.reals("box_lengths");
-      const std::vector<std::int64_t>& bounds = saved.integers("box_boundaries");
-      if (lengths.size() != 3 || bounds.size() != 3) {
-        throw InputError(fmt::format("{}: checkpoint entries box_lengths/box_boundaries need 3 values", opt->resume));
-      }
-      std::array<Boundary, 3> b{};
-      for (int k = 0; k < 3; ++k)
-        b[static_cast<std::size_t>(k)] = bounds[static_cast<std::size_t>(k)] ? Boundary::Wall : Boundary::Periodic;
-      start.box = Box(Eigen::Vector3d(lengths[0], lengths[1], lengths[2]), b);
-      const std::vector<std::int64_t>& ids = saved.integers("ids");
-      start.id.assign(ids.begin(), ids.end());
-      for (const auto& [key, value] : saved.text) {
-        if (key.rfind("attribute.", 0) == 0) start.attributes[key.substr(10)] = value;
-      }
-      origin = fmt::format("resumed from {} ({})", opt->resume, saved.string("origin"));
-      const edmd::SystemState engine = getEngine(saved);
-      const Index n = static_cast<Index>(engine.radius.size());
-      if (static_cast<Index>(start.id.size()) != n) {
-        throw InputError(fmt::format("{}: checkpoint has {} ids for {} particles", opt->resume, start.id.size(), n));
-      }
-      const std::size_t un = static_cast<std::size_t>(n);
-      if (n < 2 || engine.position.size() != 3 * un || engine.velocity.size() != 3 * un ||
-          engine.external.size() != un) {
-        throw InputError(fmt::format("{}: checkpoint engine arrays disagree in size ({} radii)", opt->resume, n));
-      }
-      // Construct in the caller's numbering (the constructor checks the state), then restore the engine's own.
-      Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, n), v = Eigen::Matrix3Xd::Zero(3, n);
-      Eigen::VectorXd r = Eigen::VectorXd::Ones(n);
-      for (Index i = 0; i < n; ++i) {
-        const Index e = static_cast<Index>(engine.external[static_cast<std::size_t>(i)]);
-        if (e < 0 || e >= n) throw InputError(fmt::format("{}: checkpoint numbering out of range", opt->resume));
-        for (int k = 0; k < 3; ++k) {
-          x(k, e) = engine.position[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
-          v(k, e) = engine.velocity[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
-        }
-        r[e] = engine.radius[static_cast<std::size_t>(i)];
-      }
-      systemPtr = std::make_unique<edmd::HardSphereSystem>(start.box, x, r, v, sopt);
-      systemPtr->restoreState(engine);
-      cstate.begun = true;
-      cstate.stage = saved.integerScalar("stage");
-      cstate.blocks = saved.integerScalar("blocks");
-      cstate.initial = countsFrom(saved, "initial_counts");
-      const std::vector<double>& plateau = saved.reals("plateau");
-      if (plateau.size() != 3)
-        throw InputError(fmt::format("{}: checkpoint entry plateau needs 3 values", opt->resume));
-      cstate.pressureLimit = plateau[0];
-      cstate.windowMax = plateau[1];
-      cstate.previousWindowMax = plateau[2];
-      const std::vector<std::int64_t>& window = saved.integers("plateau_blocks");
-      if (window.size() != 2)
-        throw InputError(fmt::format("{}: checkpoint entry plateau_blocks needs 2 values", opt->resume));
-      cstate.windowBlocks = window[0];
-      cstate.windowStart = window[1];
-      eosOffset = saved.integerScalar("eos_offset");
-    } else if (!opt->input.empty()) {
-      // --boundary with --input: it fills in what a text file leaves open and must agree with what a file
-      // states (an HDF5 snapshot always does, a text file with a '# boundaries:' line).
-      const bool boundaryGiven = cmd->count("--boundary") > 0;
-      const std::array<Boundary, 3> requested = parseBoundaries(opt->boundaries);
-      start = io::readParticles(opt->input, boundaryGiven ? requested : io::kAllPeriodic);
-      if (boundaryGiven) {
-        for (int k = 0; k < 3; ++k) {
-          if (start.box.boundary(k) != requested[static_cast<std::size_t>(k)]) {
-            throw ConfigError(fmt::format(
-                "--boundary {} conflicts with the boundaries of {} ({}): the file states its own; omit --boundary "
-                "(or write the file without them to choose)",
-                opt->boundaries, opt->input, start.box.describe()));
-          }
-        }
-      }
-      origin = opt->input;
-      if (opt->reopen > 0.0) {
-        // Near jamming p ~ 3 / (1 - phi / phi_J) (seed 001 eq. 9.1): at phi_J (the input) x (1 - 3/P) the
-        // pressure is about P. The input must be jammed well beyond P for that to hold.
-        const std::optional<double> p = io::numericAttribute(start, "reduced_pressure", opt->input);
-        if (p && !(*p > 10.0 * opt->reopen)) {
-          throw ConfigError(fmt::format("--reopen {}: the input {} has reduced pressure {:g}, not well above it",
-                                        opt->reopen, opt->input, *p));
-        }
-        const double factor = std::cbrt(1.0 - 3.0 / opt->reopen);
-        start.radius *= factor;
-        origin += fmt::format(", radii x {:.12g} (reopened to p ~ {:g})", factor, opt->reopen);
-      }
-    } else {
-      if (opt->count < 2) {
-        throw ConfigError(
-            fmt::format("--count {}: a compression needs at least 2 spheres (a lone sphere has no "
-                        "binary collisions, so neither a pressure nor a collision budget ends its run)",
-                        opt->count));
-      }
-      const auto dist = makeDistribution(opt->dist);
-      const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;
-      std::string equivalentDescription;
-      std::vector<double> radii = opt->equivalent == "none"
-                                      ? dist->sample(opt->count, sampling, opt->seed)
-                                      : equivalentRadii(*dist, opt->equivalent, opt->count, equivalentDescription);
-      std::mt19937_64 rng(opt->seed ^ 0x9e3779b97f4a7c15ULL);
-      std::shuffle(radii.begin(), radii.end(), rng);
-      PackingRequest request;
-      request.radii = radii;
-      request.packingFraction = opt->initialPhi;
-      request.boundaries = parseBoundaries(opt->boundaries);
-      request.seed = opt->seed;
-      Stopwatch rsaClock;
-      const Configuration config = randomSequentialAddition(request);
-      start.box = config.box;
-      start.position = config.position;
-      start.radius = config.radius;
-      start.id.resize(static_cast<std::size_t>(opt->count));
-      for (Index i = 0; i < opt->count; ++i) start.id[static_cast<std::size_t>(i)] = i;
-      start.attributes["distribution"] = dist->describe();
-      if (opt->equivalent != "none") start.attributes["equivalent_mixture"] = equivalentDescription;
-      origin = fmt::format("random sequential addition of {} spheres ({}) at phi {}", opt->count,
-                           opt->equivalent == "none" ? dist->describe() : equivalentDescription, opt->initialPhi);
-      fmt::print("random sequential addition: {:.2f} s\n", rsaClock.seconds());
-    }
-    if (!resuming) {
-      const Index count = start.count();
-      if (count < 2) {
-        throw ConfigError(
-            fmt::format("{}: {} sphere{}; a compression needs at least 2 (a lone sphere has no binary "
-                        "collisions, so neither a pressure nor a collision budget ends its run)",
-                        opt->input, count, count == 1 ? "" : "s"));
-      }
-      if (start.id.size() != static_cast<std::size_t>(count)) {
-        start.id.resize(static_cast<std::size_t>(count));
-        for (Index i = 0; i < count; ++i) start.id[static_cast<std::size_t>(i)] = i;
-      }
-      systemPtr = std::make_unique<edmd::HardSphereSystem>(
-          start.box, start.position, start.radius, edmd::maxwellBoltzmannVelocities(start.radius, opt->seed), sopt);
-      // Unreachable targets are refused here, before the run (the same checks compress() makes).
-      edmd::validateCompression(*systemPtr, copt);
-    }
-    edmd::HardSphereSystem& system = *systemPtr;
-    const Index n = system.count();
-    fmt::print("start: {}\n", origin);
-    fmt::print("box {}, {} spheres, size ratio {:.4g}, phi {:.6f}; neighbour lists: {} ({:.1f} per sphere)\n",
-               start.box.describe(), n, system.largestRadius() / system.smallestRadius(), system.packingFraction(),
-               system.describeBroadPhase(), system.meanNeighbours());
-    fmt::print("schedule {} -> {}; pressures up to {:.2g} resolvable\n", edmd::formatSchedule(copt.schedule),
-               opt->targetPhi > 0 ? fmt::format("phi {}", opt->targetPhi) : fmt::format("p {:g}", opt->targetPressure),
-               edmd::maxResolvablePressure(system));
+struct JamRun {
+  JamRun(JamOptions& options, const CLI::App& command) : opt(options), cmd(command) {}
+  JamOptions& opt;
+  const CLI::App& cmd;
+  bool resuming = false;
+  io::Checkpoint saved;  // the checkpoint resumed from
+  edmd::CompressionOptions copt;
+  io::ParticleData start;  // box, ids and attributes of the start (positions and radii too unless resumed)
+  std::string origin;
+  std::unique_ptr<edmd::HardSphereSystem> system;
+  edmd::CompressionState cstate;
+  std::int64_t eosOffset = -1;  // size of the EOS table at the checkpoint resumed from
+  std::ofstream eosCsv;
+  io::PeriodicFlush flushEos;
+};
 
-    std::ofstream eosCsv;
-    if (!opt->eosCsv.empty()) {
-      if (resuming) {
-        // Rows after the checkpoint belong to the lost part of the run: cut them, then go on appending.
-        std::error_code ec;
-        const auto size = std::filesystem::file_size(opt->eosCsv, ec);
-        if (ec || static_cast<std::int64_t>(size) < eosOffset) {
-          throw InputError(
-              fmt::format("--eos-csv '{}' (from the checkpoint): missing or shorter than the {} bytes it "
-                          "had at the checkpoint",
-                          opt->eosCsv, eosOffset));
-        }
-        std::filesystem::resize_file(opt->eosCsv, static_cast<std::uintmax_t>(eosOffset));
-        eosCsv.open(opt->eosCsv, std::ios::app);
-      } else {
-        eosCsv.open(opt->eosCsv);
+/// --resume: refuse options that would change the run, then take every setting from the checkpoint.
+void loadResumeSettings(JamRun& run) {
+  JamOptions& opt = run.opt;
+  for (const CLI::Option* o : run.cmd.get_options()) {
+    if (o->count() > 0 && !kResumeOverrides.count(o->get_name())) {
+      throw ConfigError(fmt::format(
+          "{} cannot be combined with --resume: the checkpoint holds every setting of the run, so that the "
+          "resumed run is the interrupted one (only --progress, --checkpoint-interval and --stop-after-blocks "
+          "may be given)",
+          o->get_name()));
+    }
+  }
+  const JamOptions overrides = opt;
+  run.saved = io::readCheckpoint(opt.resume, "jam");
+  if (run.saved.integerScalar("format") != kJamCheckpointFormat) {
+    throw InputError(fmt::format("{}: jam checkpoint format {} (this polydem reads format {})", opt.resume,
+                                 run.saved.integerScalar("format"), kJamCheckpointFormat));
+  }
+  getSettings(run.saved, opt);
+  opt.resume = overrides.resume;
+  opt.checkpoint = opt.resume;  // a resumed run keeps checkpointing into the file it resumed from
+  opt.stopAfterBlocks = overrides.stopAfterBlocks;
+  if (run.cmd.count("--progress")) opt.progressSeconds = overrides.progressSeconds;
+  if (run.cmd.count("--checkpoint-interval")) opt.checkpointInterval = overrides.checkpointInterval;
+}
+
+edmd::CompressionOptions compressionOptions(const JamOptions& opt) {
+  edmd::CompressionOptions copt;
+  copt.schedule = edmd::parseSchedule(opt.schedule);
+  copt.targetPressure = opt.targetPressure;
+  copt.targetPackingFraction = opt.targetPhi;
+  copt.maxCollisionsPerParticle = opt.maxCollisions;
+  copt.blockCollisionsPerParticle = opt.block;
+  return copt;
+}
+
+edmd::SystemOptions systemOptions(const JamOptions& opt) {
+  edmd::SystemOptions sopt;
+  sopt.broadPhase = opt.broadPhase;
+  sopt.neighbourhoodScale = opt.neighbourhoodScale;
+  sopt.skinCap = opt.skinCap;
+  return sopt;
+}
+
+/// Combinations of options that make no run.
+void checkArguments(const JamRun& run) {
+  const JamOptions& opt = run.opt;
+  if (!run.resuming) {
+    if (opt.reopen > 0.0 && opt.input.empty()) throw ConfigError("--reopen needs --input (a jammed packing)");
+    if (!opt.input.empty() && opt.equivalent != "none") {
+      throw ConfigError("--equivalent applies to the random start (--dist); it cannot be combined with --input");
+    }
+    if (opt.block != 0.0 && opt.block < 1.0) {
+      throw ConfigError(
+          fmt::format("--block {}: must be 0 (automatic) or at least 1 collision per particle "
+                      "(smaller blocks spend the run synchronising)",
+                      opt.block));
+    }
+  }
+  if (run.cmd.count("--checkpoint-interval") && opt.checkpoint.empty()) {
+    throw ConfigError("--checkpoint-interval needs --checkpoint FILE");
+  }
+}
+
+/// Every output is checked before any computation (hours of work must not end in "cannot write"),
+/// against every input and against each other.
+void checkOutputs(const JamRun& run) {
+  const JamOptions& opt = run.opt;
+  std::vector<std::filesystem::path> inputs;
+  if (!opt.input.empty()) inputs.emplace_back(opt.input);
+  std::vector<std::filesystem::path> outputsSoFar;
+  auto checkOutput = [&](const std::string& path, const char* what, bool mayBeResumeFile) {
+    if (path.empty()) return;
+    std::vector<std::filesystem::path> against = inputs;
+    if (run.resuming && !mayBeResumeFile) against.emplace_back(opt.resume);
+    io::checkOutputPath(path, what, against);
+    for (const auto& other : outputsSoFar) {
+      if (io::samePath(path, other)) {
+        throw ConfigError(fmt::format("{} '{}': the same file as another output of this run", what, path));
       }
-      if (!eosCsv) throw ConfigError(fmt::format("--eos-csv: cannot write '{}'", opt->eosCsv));
-      if (!resuming) {
-        eosCsv << "# polydem jam EOS: one line per block; Z = reduced pressure PV/(N kT) of the block\n"
-               << "phi,Z,rate,collisions_per_particle,time,wall_seconds\n";
-      }
     }
-    io::PeriodicFlush flushEos;
-
-    auto writeCheckpointNow = [&](edmd::HardSphereSystem& sys, const edmd::CompressionState& cs) {
-      io::Checkpoint c;
-      c.kind = "jam";
-      c.putInteger("format", kCheckpointFormat);
-      putSettings(c, *opt);
-      c.text["origin"] = resuming ? saved.string("origin") : origin;
-      for (const auto& [key, value] : start.attributes) c.text["attribute." + key] = value;
-      c.real["box_lengths"] = {start.box.length(0), start.box.length(1), start.box.length(2)};
-      c.integer["box_boundaries"] = {start.box.periodic(0) ? 0 : 1, start.box.periodic(1) ? 0 : 1,
-                                     start.box.periodic(2) ? 0 : 1};
-      c.integer["ids"] = std::vector<std::int64_t>(start.id.begin(), start.id.end());
-      c.putInteger("stage", cs.stage);
-      c.putInteger("blocks", cs.blocks);
-      c.integer["initial_counts"] = countsVector(cs.initial);
-      c.real["plateau"] = {cs.pressureLimit, cs.windowMax, cs.previousWindowMax};
-      c.integer["plateau_blocks"] = {cs.windowBlocks, cs.windowStart};
-      std::int64_t offset = 0;
-      if (eosCsv.is_open()) {
-        eosCsv.flush();
-        offset = static_cast<std::int64_t>(eosCsv.tellp());
-      }
-      c.putInteger("eos_offset", offset);
-      putEngine(c, sys.saveState());
-      io::writeCheckpoint(opt->checkpoint, c);
-    };
-
-    Stopwatch clock;
-    double lastPrint = -1e300;
-    auto line = [&](const edmd::Progress& p) {
-      fmt::print(
-          "phi {:.6f}  p {:>10}  phiJ~ {:>8}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
-          "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
-          p.packingFraction, fmtPressure(p.pressure),
-          // phi / (1 - 3/p) is undefined while p <= 3 (a dilute gas): a dash, not "nan".
-          std::isfinite(p.jammingEstimate) ? fmt::format("{:.6f}", p.jammingEstimate) : std::string("-"), p.rate,
-          p.collisionsPerParticle, p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision,
-          p.wallSeconds);
-      std::fflush(stdout);
-    };
-    edmd::Progress lastShown;
-    Stopwatch sinceCheckpoint;
-    bool stoppedForTest = false;
-    // Wall-clock things (progress lines, checkpoint times) only read the system: the trajectory is the same
-    // whether or when they happen (saveState() synchronises, which at a block boundary changes nothing).
-    const edmd::BoundaryHook atBoundary = [&](edmd::HardSphereSystem& sys, const edmd::CompressionState& cs) {
-      const bool testStop = opt->stopAfterBlocks > 0 && cs.blocks >= opt->stopAfterBlocks;
-      const bool stop = interruptRequested() || testStop;
-      if (!opt->checkpoint.empty() && (stop || sinceCheckpoint.seconds() >= opt->checkpointInterval)) {
-        writeCheckpointNow(sys, cs);
-        sinceCheckpoint = Stopwatch();
-        if (stop) fmt::print("wrote checkpoint {} at block {}\n", opt->checkpoint, cs.blocks);
-      }
-      stoppedForTest = testStop && !interruptRequested();
-      return stop;
-    };
-    const edmd::CompressionResult result = edmd::compress(
-        system, copt,
-        [&](const edmd::Progress& p) {
-          if (eosCsv.is_open()) {
-            eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
-                                  p.collisionsPerParticle, p.time, p.wallSeconds);
-            flushEos(eosCsv);
-          }
-          if (p.wallSeconds - lastPrint >= opt->progressSeconds) {
-            line(p);
-            lastPrint = p.wallSeconds;
-            lastShown = p;
-          }
-        },
-        atBoundary, &cstate);
-    if (lastShown.blocks != result.last.blocks) line(result.last);
-    const double compressSeconds = clock.seconds();
-    bool interrupted = result.stopReason == "interrupted";
-    std::string stopReason = result.stopReason;
-
-    double pressure = result.last.pressure;
-    edmd::EquilibriumRun eq;
-    if (opt->runCollisions > 0.0 && !interrupted) {
-      eq = edmd::runAtFixedDensity(system, opt->runCollisions, 100.0, [] { return interruptRequested(); });
-      if (interruptRequested()) {
-        interrupted = true;
-        stopReason = "interrupted (during --run-collisions)";
-      }
-      fmt::print(
-          "fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
-          "{:.3g} events/s, {:.2f} s; {:.1f} neighbours per sphere, {:.3f} exits per collision\n",
-          opt->runCollisions, fmtPressure(eq.pressure), fmtPressure(pressure), eq.collisionsPerSecond,
-          eq.eventsPerSecond, eq.wallSeconds, system.meanNeighbours(),
-          static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)));
-      pressure = eq.pressure;
-    }
-
-    const Eigen::Matrix3Xd x = system.positions();
-    const Eigen::VectorXd r = system.radii();
-    edmd::ContactOptions contactOptions;
-    contactOptions.relativeGap = opt->contactGap > 0.0 ? opt->contactGap : edmd::defaultContactGap(pressure);
-    contactOptions.broadPhase = opt->broadPhase;
-    const edmd::ContactNetwork net = edmd::analyseContacts(SphereView{x, r}, system.box(), contactOptions);
-    const double phi = system.packingFraction();
-    const double phiJ = edmd::jammingDensityEstimate(phi, pressure);
-    const edmd::EventCounts& c = result.counts;
-    const std::string phiJText = std::isfinite(phiJ) ? fmt::format("{:.8f}", phiJ) : std::string("undefined (p <= 3)");
-
-    const bool targetReached = result.targetReached && !interrupted;
-    fmt::print("\nstopped on {} after {} blocks\n", stopReason, result.last.blocks);
-    fmt::print("target reached          {}\n", targetReached ? "yes" : fmt::format("no ({})", stopReason));
-    fmt::print("packing fraction        {:.8f}\n", phi);
-    fmt::print("reduced pressure        {}\n", fmtPressure(pressure));
-    fmt::print("phi_J estimate          {}  (phi / (1 - 3/p))\n", phiJText);
-    fmt::print("collisions              {} ({:.0f} per particle), {} events; {} exits, {} rebuilds\n", c.collisions,
-               static_cast<double>(c.collisions) / n, c.events(), c.exits, c.rebuilds);
-    fmt::print("wall time               {:.2f} s ({:.3g} collisions/s, {:.3g} events/s)\n", compressSeconds,
-               c.collisions / std::max(compressSeconds, 1e-9), c.events() / std::max(compressSeconds, 1e-9));
-    fmt::print("contacts (gap <= {:.1e}) {}  z = {:.4f}\n", contactOptions.relativeGap, net.contacts.size(),
-               net.meanCoordination());
-    fmt::print("rattlers (< {} contacts)  {} ({:.2f}%)\n", contactOptions.minContacts, n - net.backbone,
-               100.0 * net.rattlerFraction());
-    if (net.backbone > 0) {
-      fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N' {:+d}) = {}\n",
-                 net.backbone, net.backboneContacts, net.backboneCoordination(), 1 - net.periodicAxes,
-                 net.isostaticExcess());
-    } else {
-      fmt::print("backbone                none (every sphere a rattler): z and isostaticity undefined\n");
-    }
-    fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
-               system.maxOverlapSeen());
-    if (net.backbone > 0 && net.isostaticExcess() < 0 && pressure >= 1e9) {
-      // A hypostatic backbone at high pressure: floppy modes left by too fast a late stage (seed 001
-      // :11228-11244; docs/edmd.md, pressure-leak test against the final growth rate).
-      fmt::print(
-          "note: the backbone is hypostatic: the late stages ran too fast for it to find its contacts; in our runs "
-          "packings passed `polydem analyze --leak-test` when four decades of pressure beyond p ~ 1e4 ran at 3e-5 or slower, and "
-          "`polydem jam -i {} --reopen 1e8 --schedule 3e-5` compresses this one again that way\n",
-          opt->output.empty() ? std::string("PACKING") : opt->output);
-    }
-
-    if (!opt->output.empty()) {
-      io::ParticleData out;
-      out.box = system.box();
-      out.position = x;
-      out.radius = r;
-      if (opt->writeVelocities) out.velocity = system.velocities();
-      out.id = start.id;
-      out.time = system.time();
-      out.attributes = start.attributes;
-      out.attributes["generator"] = "polydem jam";
-      out.attributes["schedule"] = edmd::formatSchedule(copt.schedule);
-      out.attributes["target"] = opt->targetPhi > 0 ? fmt::format("phi {:.17g}", opt->targetPhi)
-                                                    : fmt::format("p {:.17g}", opt->targetPressure);
-      out.attributes["target_reached"] = targetReached ? "yes" : "no";
-      out.attributes["stop_reason"] = stopReason;
-      out.attributes["packing_fraction"] = fmt::format("{:.17g}", phi);
-      out.attributes["reduced_pressure"] = fmt::format("{:.17g}", pressure);
-      if (std::isfinite(phiJ)) out.attributes["phi_j_estimate"] = fmt::format("{:.17g}", phiJ);
-      out.attributes["contacts"] = std::to_string(net.contacts.size());
-      out.attributes["contact_gap"] = fmt::format("{:.3g}", contactOptions.relativeGap);
-      out.attributes["z"] = fmt::format("{:.6f}", net.meanCoordination());
-      if (net.backbone > 0) out.attributes["z_backbone"] = fmt::format("{:.6f}", net.backboneCoordination());
-      out.attributes["rattler_fraction"] = fmt::format("{:.6f}", net.rattlerFraction());
-      out.attributes["collisions"] = std::to_string(c.collisions);
-      io::writeParticles(opt->output, out);
-      fmt::print("wrote {}\n", opt->output);
-    }
-    if (eosCsv.is_open()) eosCsv.flush();
-    if (interrupted) {
-      const int sig = interruptSignal();
-      fmt::print(
-          "interrupted ({}) at block {}{}\n",
-          stoppedForTest ? fmt::format("--stop-after-blocks {}", opt->stopAfterBlocks) : fmt::format("signal {}", sig),
-          result.last.blocks,
-          opt->checkpoint.empty() || !std::filesystem::exists(opt->checkpoint)
-              ? std::string("; no checkpoint was written, so the run cannot be resumed")
-              : fmt::format("; continue with `polydem jam --resume {}`{}", opt->checkpoint,
-                            stopReason == "interrupted" ? "" : " (it repeats the run from that checkpoint)"));
-      return kExitInterrupted;
-    }
-    if (!targetReached) {
-      fmt::print("target not reached: {}\n", stopReason);
-      return kExitTargetNotReached;
-    }
-    return kExitOk;
+    outputsSoFar.emplace_back(path);
   };
+  checkOutput(opt.output, "-o/--output", false);
+  checkOutput(opt.eosCsv, "--eos-csv", false);
+  checkOutput(opt.checkpoint, "--checkpoint", true);
+}
+
+/// Start from the checkpoint: the system in its saved state, the compression where it stood.
+void resumeStart(JamRun& run) {
+  const std::string& file = run.opt.resume;
+  run.start = getStartRecord(run.saved);
+  run.origin = fmt::format("resumed from {} ({})", file, run.saved.string("origin"));
+  const edmd::SystemState engine = getEngine(run.saved);
+  const Index n = static_cast<Index>(engine.radius.size());
+  if (static_cast<Index>(run.start.id.size()) != n) {
+    throw InputError(fmt::format("{}: checkpoint has {} ids for {} particles", file, run.start.id.size(), n));
+  }
+  const std::size_t un = static_cast<std::size_t>(n);
+  if (n < 2 || engine.position.size() != 3 * un || engine.velocity.size() != 3 * un ||
+      engine.external.size() != un) {
+    throw InputError(fmt::format("{}: checkpoint engine arrays disagree in size ({} radii)", file, n));
+  }
+  // Construct in the caller's numbering (the constructor checks the state), then restore the engine's own.
+  Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, n), v = Eigen::Matrix3Xd::Zero(3, n);
+  Eigen::VectorXd r = Eigen::VectorXd::Ones(n);
+  for (Index i = 0; i < n; ++i) {
+    const Index e = static_cast<Index>(engine.external[static_cast<std::size_t>(i)]);
+    if (e < 0 || e >= n) throw InputError(fmt::format("{}: checkpoint numbering out of range", file));
+    for (int k = 0; k < 3; ++k) {
+      x(k, e) = engine.position[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
+      v(k, e) = engine.velocity[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
+    }
+    r[e] = engine.radius[static_cast<std::size_t>(i)];
+  }
+  run.system = std::make_unique<edmd::HardSphereSystem>(run.start.box, x, r, v, systemOptions(run.opt));
+  run.system->restoreState(engine);
+  run.cstate = getCompressionState(run.saved);
+  run.eosOffset = run.saved.integerScalar("eos_offset");
+}
+
+/// Start from --input, shrunk to about --reopen's pressure if given.
+void loadInputStart(JamRun& run) {
+  const JamOptions& opt = run.opt;
+  // --boundary with --input: it fills in what a text file leaves open and must agree with what a file
+  // states (an HDF5 snapshot always does, a text file with a '# boundaries:' line).
+  const bool boundaryGiven = run.cmd.count("--boundary") > 0;
+  const std::array<Boundary, 3> requested = parseBoundaries(opt.boundaries);
+  run.start = io::readParticles(opt.input, boundaryGiven ? requested : io::kAllPeriodic);
+  if (boundaryGiven) {
+    for (int k = 0; k < 3; ++k) {
+      if (run.start.box.boundary(k) != requested[static_cast<std::size_t>(k)]) {
+        throw ConfigError(fmt::format(
+            "--boundary {} conflicts with the boundaries of {} ({}): the file states its own; omit --boundary "
+            "(or write the file without them to choose)",
+            opt.boundaries, opt.input, run.start.box.describe()));
+      }
+    }
+  }
+  run.origin = opt.input;
+  if (opt.reopen > 0.0) {
+    // edmd::reopenRadiusFactor holds for packings jammed well beyond the pressure reopened to.
+    const std::optional<double> p = io::numericAttribute(run.start, "reduced_pressure", opt.input);
+    if (p && !(*p > edmd::kReopenMargin * opt.reopen)) {
+      throw ConfigError(fmt::format("--reopen {}: the input {} has reduced pressure {:g}, not well above it",
+                                    opt.reopen, opt.input, *p));
+    }
+    const double factor = edmd::reopenRadiusFactor(opt.reopen);
+    run.start.radius *= factor;
+    run.origin += fmt::format(", radii x {:.12g} (reopened to p ~ {:g})", factor, opt.reopen);
+  }
+}
+
+/// Start from random sequential addition of radii sampled from --dist (or its --equivalent mixture).
+void sampleStart(JamRun& run) {
+  const JamOptions& opt = run.opt;
+  if (opt.count < 2) {
+    throw ConfigError(
+        fmt::format("--count {}: a compression needs at least 2 spheres (a lone sphere has no "
+                    "binary collisions, so neither a pressure nor a collision budget ends its run)",
+                    opt.count));
+  }
+  const auto dist = makeDistribution(opt.dist);
+  const Sampling sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
+  std::string equivalentDescription;
+  std::vector<double> radii = opt.equivalent == "none"
+                                  ? dist->sample(opt.count, sampling, opt.seed)
+                                  : equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
+  std::mt19937_64 rng(opt.seed ^ 0x9e3779b97f4a7c15ULL);
+  std::shuffle(radii.begin(), radii.end(), rng);
+  PackingRequest request;
+  request.radii = radii;
+  request.packingFraction = opt.initialPhi;
+  request.boundaries = parseBoundaries(opt.boundaries);
+  request.seed = opt.seed;
+  Stopwatch rsaClock;
+  const Configuration config = randomSequentialAddition(request);
+  run.start.box = config.box;
+  run.start.position = config.position;
+  run.start.radius = config.radius;
+  run.start.id.resize(static_cast<std::size_t>(opt.count));
+  for (Index i = 0; i < opt.count; ++i) run.start.id[static_cast<std::size_t>(i)] = i;
+  run.start.attributes["distribution"] = dist->describe();
+  if (opt.equivalent != "none") run.start.attributes["equivalent_mixture"] = equivalentDescription;
+  run.origin = fmt::format("random sequential addition of {} spheres ({}) at phi {}", opt.count,
+                           opt.equivalent == "none" ? dist->describe() : equivalentDescription, opt.initialPhi);
+  fmt::print("random sequential addition: {:.2f} s\n", rsaClock.seconds());
+}
+
+/// The system of a fresh start, with Maxwell-Boltzmann velocities; unreachable targets refused here.
+void startSystem(JamRun& run) {
+  const Index count = run.start.count();
+  if (count < 2) {
+    throw ConfigError(
+        fmt::format("{}: {} sphere{}; a compression needs at least 2 (a lone sphere has no binary "
+                    "collisions, so neither a pressure nor a collision budget ends its run)",
+                    run.opt.input, count, count == 1 ? "" : "s"));
+  }
+  if (run.start.id.size() != static_cast<std::size_t>(count)) {
+    run.start.id.resize(static_cast<std::size_t>(count));
+    for (Index i = 0; i < count; ++i) run.start.id[static_cast<std::size_t>(i)] = i;
+  }
+  run.system = std::make_unique<edmd::HardSphereSystem>(
+      run.start.box, run.start.position, run.start.radius,
+      edmd::maxwellBoltzmannVelocities(run.start.radius, run.opt.seed), systemOptions(run.opt));
+  // The same checks compress() makes, before the run.
+  edmd::validateCompression(*run.system, run.copt);
+}
+
+void printStart(const JamRun& run) {
+  const edmd::HardSphereSystem& system = *run.system;
+  fmt::print("start: {}\n", run.origin);
+  fmt::print("box {}, {} spheres, size ratio {:.4g}, phi {:.6f}; neighbour lists: {} ({:.1f} per sphere)\n",
+             run.start.box.describe(), system.count(), system.largestRadius() / system.smallestRadius(),
+             system.packingFraction(), system.describeBroadPhase(), system.meanNeighbours());
+  fmt::print("schedule {} -> {}; pressures up to {:.2g} resolvable\n", edmd::formatSchedule(run.copt.schedule),
+             run.opt.targetPhi > 0 ? fmt::format("phi {}", run.opt.targetPhi)
+                                   : fmt::format("p {:g}", run.opt.targetPressure),
+             edmd::maxResolvablePressure(system));
+}
+
+/// --eos-csv: a new table, or, resumed, the table cut back to the checkpoint and appended to.
+void openEosTable(JamRun& run) {
+  const std::string& file = run.opt.eosCsv;
+  if (file.empty()) return;
+  if (run.resuming) {
+    // Rows after the checkpoint belong to the lost part of the run: cut them, then go on appending.
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(file, ec);
+    if (ec || static_cast<std::int64_t>(size) < run.eosOffset) {
+      throw InputError(
+          fmt::format("--eos-csv '{}' (from the checkpoint): missing or shorter than the {} bytes it "
+                      "had at the checkpoint",
+                      file, run.eosOffset));
+    }
+    std::filesystem::resize_file(file, static_cast<std::uintmax_t>(run.eosOffset));
+    run.eosCsv.open(file, std::ios::app);
+  } else {
+    run.eosCsv.open(file);
+  }
+  if (!run.eosCsv) throw ConfigError(fmt::format("--eos-csv: cannot write '{}'", file));
+  if (!run.resuming) {
+    run.eosCsv << "# polydem jam EOS: one line per block; Z = reduced pressure PV/(N kT) of the block\n"
+               << "phi,Z,rate,collisions_per_particle,time,wall_seconds\n";
+  }
+}
+
+void writeJamCheckpoint(JamRun& run, edmd::HardSphereSystem& system, const edmd::CompressionState& cs) {
+  io::Checkpoint c;
+  c.kind = "jam";
+  c.putInteger("format", kJamCheckpointFormat);
+  putSettings(c, run.opt);
+  c.text["origin"] = run.resuming ? run.saved.string("origin") : run.origin;
+  putStartRecord(c, run.start);
+  putCompressionState(c, cs);
+  std::int64_t offset = 0;
+  if (run.eosCsv.is_open()) {
+    run.eosCsv.flush();
+    offset = static_cast<std::int64_t>(run.eosCsv.tellp());
+  }
+  c.putInteger("eos_offset", offset);
+  putEngine(c, system.saveState());
+  io::writeCheckpoint(run.opt.checkpoint, c);
+}
+
+void printProgress(const edmd::Progress& p) {
+  fmt::print(
+      "phi {:.6f}  p {:>10}  phiJ~ {:>8}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
+      "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
+      p.packingFraction, fmtPressure(p.pressure),
+      // phi / (1 - 3/p) is undefined while p <= 3 (a dilute gas): a dash, not "nan".
+      std::isfinite(p.jammingEstimate) ? fmt::format("{:.6f}", p.jammingEstimate) : std::string("-"), p.rate,
+      p.collisionsPerParticle, p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision,
+      p.wallSeconds);
+  std::fflush(stdout);
+}
+
+struct CompressOutcome {
+  edmd::CompressionResult result;
+  double seconds = 0.0;
+  bool stoppedForTest = false;  // --stop-after-blocks acted, not a signal
+};
+
+/// The compression, with an EOS row and perhaps a progress line per block, and checkpoints at block
+/// boundaries. Wall-clock things (progress lines, checkpoint times) only read the system: the trajectory
+/// is the same whether or when they happen (saveState() synchronises, which at a block boundary changes
+/// nothing).
+CompressOutcome compressPacking(JamRun& run) {
+  const JamOptions& opt = run.opt;
+  CompressOutcome out;
+  Stopwatch clock;
+  double lastPrint = -1e300;
+  edmd::Progress lastShown;
+  Stopwatch sinceCheckpoint;
+  const edmd::BoundaryHook atBoundary = [&](edmd::HardSphereSystem& sys, const edmd::CompressionState& cs) {
+    const bool testStop = opt.stopAfterBlocks > 0 && cs.blocks >= opt.stopAfterBlocks;
+    const bool stop = interruptRequested() || testStop;
+    if (!opt.checkpoint.empty() && (stop || sinceCheckpoint.seconds() >= opt.checkpointInterval)) {
+      writeJamCheckpoint(run, sys, cs);
+      sinceCheckpoint = Stopwatch();
+      if (stop) fmt::print("wrote checkpoint {} at block {}\n", opt.checkpoint, cs.blocks);
+    }
+    out.stoppedForTest = testStop && !interruptRequested();
+    return stop;
+  };
+  const auto onBlock = [&](const edmd::Progress& p) {
+    if (run.eosCsv.is_open()) {
+      run.eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure,
+                                p.rate, p.collisionsPerParticle, p.time, p.wallSeconds);
+      run.flushEos(run.eosCsv);
+    }
+    if (p.wallSeconds - lastPrint >= opt.progressSeconds) {
+      printProgress(p);
+      lastPrint = p.wallSeconds;
+      lastShown = p;
+    }
+  };
+  out.result = edmd::compress(*run.system, run.copt, onBlock, atBoundary, &run.cstate);
+  if (lastShown.blocks != out.result.last.blocks) printProgress(out.result.last);
+  out.seconds = clock.seconds();
+  return out;
+}
+
+/// What the report and the output say about the final packing.
+struct JamSummary {
+  bool interrupted = false;
+  bool targetReached = false;
+  std::string stopReason;
+  double pressure = 0.0, phi = 0.0, phiJ = 0.0;
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd r;
+  edmd::ContactOptions contactOptions;
+  edmd::ContactNetwork net;
+};
+
+/// --run-collisions: the fixed-density run after the compression; its pressure replaces the last block's.
+void runFixedDensity(JamRun& run, JamSummary& summary) {
+  edmd::HardSphereSystem& system = *run.system;
+  const edmd::EquilibriumRun eq =
+      edmd::runAtFixedDensity(system, run.opt.runCollisions, 100.0, [] { return interruptRequested(); });
+  if (interruptRequested()) {
+    summary.interrupted = true;
+    summary.stopReason = "interrupted (during --run-collisions)";
+  }
+  fmt::print(
+      "fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
+      "{:.3g} events/s, {:.2f} s; {:.1f} neighbours per sphere, {:.3f} exits per collision\n",
+      run.opt.runCollisions, fmtPressure(eq.pressure), fmtPressure(summary.pressure), eq.collisionsPerSecond,
+      eq.eventsPerSecond, eq.wallSeconds, system.meanNeighbours(),
+      static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)));
+  summary.pressure = eq.pressure;
+}
+
+/// The contact network of the final packing.
+void analysePacking(const JamRun& run, JamSummary& summary) {
+  const edmd::HardSphereSystem& system = *run.system;
+  summary.x = system.positions();
+  summary.r = system.radii();
+  summary.contactOptions.relativeGap =
+      run.opt.contactGap > 0.0 ? run.opt.contactGap : edmd::defaultContactGap(summary.pressure);
+  summary.contactOptions.broadPhase = run.opt.broadPhase;
+  summary.net = edmd::analyseContacts(SphereView{summary.x, summary.r}, system.box(), summary.contactOptions);
+  summary.phi = system.packingFraction();
+  summary.phiJ = edmd::jammingDensityEstimate(summary.phi, summary.pressure);
+}
+
+void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSummary& s) {
+  const edmd::HardSphereSystem& system = *run.system;
+  const Index n = system.count();
+  const edmd::EventCounts& c = outcome.result.counts;
+  const edmd::ContactNetwork& net = s.net;
+  const double seconds = outcome.seconds;
+  const std::string phiJText =
+      std::isfinite(s.phiJ) ? fmt::format("{:.8f}", s.phiJ) : std::string("undefined (p <= 3)");
+  fmt::print("\nstopped on {} after {} blocks\n", s.stopReason, outcome.result.last.blocks);
+  fmt::print("target reached          {}\n", s.targetReached ? "yes" : fmt::format("no ({})", s.stopReason));
+  fmt::print("packing fraction        {:.8f}\n", s.phi);
+  fmt::print("reduced pressure        {}\n", fmtPressure(s.pressure));
+  fmt::print("phi_J estimate          {}  (phi / (1 - 3/p))\n", phiJText);
+  fmt::print("collisions              {} ({:.0f} per particle), {} events; {} exits, {} rebuilds\n", c.collisions,
+             static_cast<double>(c.collisions) / n, c.events(), c.exits, c.rebuilds);
+  fmt::print("wall time               {:.2f} s ({:.3g} collisions/s, {:.3g} events/s)\n", seconds,
+             c.collisions / std::max(seconds, 1e-9), c.events() / std::max(seconds, 1e-9));
+  fmt::print("contacts (gap <= {:.1e}) {}  z = {:.4f}\n", s.contactOptions.relativeGap, net.contacts.size(),
+             net.meanCoordination());
+  fmt::print("rattlers (< {} contacts)  {} ({:.2f}%)\n", s.contactOptions.minContacts, n - net.backbone,
+             100.0 * net.rattlerFraction());
+  if (net.backbone > 0) {
+    fmt::print("backbone                {} spheres, {} contacts, z = {:.4f}, contacts - (3N' {:+d}) = {}\n",
+               net.backbone, net.backboneContacts, net.backboneCoordination(), 1 - net.periodicAxes,
+               net.isostaticExcess());
+  } else {
+    fmt::print("backbone                none (every sphere a rattler): z and isostaticity undefined\n");
+  }
+  fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
+             system.maxOverlapSeen());
+  if (net.backbone > 0 && net.isostaticExcess() < 0 && s.pressure >= 1e9) {
+    // A hypostatic backbone at high pressure: floppy modes left by too fast a late stage (Donev 2006,
+    // thesis, §9.3.1; docs/edmd-results.md, pressure-leak test against the final growth rate).
+    fmt::print(
+        "note: the backbone is hypostatic: the late stages ran too fast for it to find its contacts; in our runs "
+        "packings passed `polydem analyze --leak-test` when four decades of pressure beyond p ~ 1e4 ran at 3e-5 or "
+        "slower, and `polydem jam -i {} --reopen 1e8 --schedule 3e-5` compresses this one again that way\n",
+        run.opt.output.empty() ? std::string("PACKING") : run.opt.output);
+  }
+}
+
+/// -o: the packing with its provenance and summary as attributes.
+void writePacking(const JamRun& run, const edmd::CompressionResult& result, const JamSummary& s) {
+  const JamOptions& opt = run.opt;
+  const edmd::HardSphereSystem& system = *run.system;
+  io::ParticleData out;
+  out.box = system.box();
+  out.position = s.x;
+  out.radius = s.r;
+  if (opt.writeVelocities) out.velocity = system.velocities();
+  out.id = run.start.id;
+  out.time = system.time();
+  out.attributes = run.start.attributes;
+  out.attributes["generator"] = "polydem jam";
+  out.attributes["schedule"] = edmd::formatSchedule(run.copt.schedule);
+  out.attributes["target"] =
+      opt.targetPhi > 0 ? fmt::format("phi {:.17g}", opt.targetPhi) : fmt::format("p {:.17g}", opt.targetPressure);
+  out.attributes["target_reached"] = s.targetReached ? "yes" : "no";
+  out.attributes["stop_reason"] = s.stopReason;
+  out.attributes["packing_fraction"] = fmt::format("{:.17g}", s.phi);
+  out.attributes["reduced_pressure"] = fmt::format("{:.17g}", s.pressure);
+  if (std::isfinite(s.phiJ)) out.attributes["phi_j_estimate"] = fmt::format("{:.17g}", s.phiJ);
+  out.attributes["contacts"] = std::to_string(s.net.contacts.size());
+  out.attributes["contact_gap"] = fmt::format("{:.3g}", s.contactOptions.relativeGap);
+  out.attributes["z"] = fmt::format("{:.6f}", s.net.meanCoordination());
+  if (s.net.backbone > 0) out.attributes["z_backbone"] = fmt::format("{:.6f}", s.net.backboneCoordination());
+  out.attributes["rattler_fraction"] = fmt::format("{:.6f}", s.net.rattlerFraction());
+  out.attributes["collisions"] = std::to_string(result.counts.collisions);
+  io::writeParticles(opt.output, out);
+  fmt::print("wrote {}\n", opt.output);
+}
+
+/// The exit code, and after an interrupt how to go on.
+int finish(const JamRun& run, const CompressOutcome& outcome, const JamSummary& s) {
+  const JamOptions& opt = run.opt;
+  if (s.interrupted) {
+    const int sig = interruptSignal();
+    fmt::print("interrupted ({}) at block {}{}\n",
+               outcome.stoppedForTest ? fmt::format("--stop-after-blocks {}", opt.stopAfterBlocks)
+                                      : fmt::format("signal {}", sig),
+               outcome.result.last.blocks,
+               opt.checkpoint.empty() || !std::filesystem::exists(opt.checkpoint)
+                   ? std::string("; no checkpoint was written, so the run cannot be resumed")
+                   : fmt::format("; continue with `polydem jam --resume {}`{}", opt.checkpoint,
+                                 s.stopReason == "interrupted" ? "" : " (it repeats the run from that checkpoint)"));
+    return kExitInterrupted;
+  }
+  if (!s.targetReached) {
+    fmt::print("target not reached: {}\n", s.stopReason);
+    return kExitTargetNotReached;
+  }
+  return kExitOk;
+}
+
+int runJam(JamOptions& opt, const CLI::App& cmd) {
+  installInterruptHandlers();
+  JamRun run(opt, cmd);
+  run.resuming = !opt.resume.empty();
+  if (run.resuming) {
+    loadResumeSettings(run);
+  } else {
+    finishDistributionSpec(opt.dist, opt.fractionKind);
+  }
+  run.copt = compressionOptions(opt);
+  checkArguments(run);
+  checkOutputs(run);
+  if (run.resuming) {
+    resumeStart(run);
+  } else {
+    if (opt.input.empty()) {
+      sampleStart(run);
+    } else {
+      loadInputStart(run);
+    }
+    startSystem(run);
+  }
+  printStart(run);
+  openEosTable(run);
+
+  const CompressOutcome outcome = compressPacking(run);
+  JamSummary summary;
+  summary.stopReason = outcome.result.stopReason;
+  summary.interrupted = summary.stopReason == "interrupted";
+  summary.pressure = outcome.result.last.pressure;
+  if (opt.runCollisions > 0.0 && !summary.interrupted) runFixedDensity(run, summary);
+  analysePacking(run, summary);
+  summary.targetReached = outcome.result.targetReached && !summary.interrupted;
+  printReport(run, outcome, summary);
+  if (!opt.output.empty()) writePacking(run, outcome.result, summary);
+  if (run.eosCsv.is_open()) run.eosCsv.flush();
+  return finish(run, outcome, summary);
+}
+
+}  // namespace
+
+Runner addJam(CLI::App& app) {
+  auto opt = std::make_shared<JamOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "jam", "Lubachevsky-Stillinger compression of hard spheres to jamming (event-driven), with contact statistics");
+  addJamOptions(cmd, opt.get());
+  return [opt, cmd]() -> int { return runJam(*opt, *cmd); };
 }
 
 }  // namespace polydem::app

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "core/errors.hpp"
@@ -107,7 +108,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   const LoadTestResult unjammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
   EXPECT_FALSE(unjammedIp.jammed) << unjammedIp.verdict;
   EXPECT_GT(unjammedIp.displaced, 0);
-  // Subpacking rounds (seed Algorithm 13): the intact packing needs one round; the holed one sets its
+  // Subpacking rounds (Donev 2006, thesis, Algorithm 13): the intact packing needs one round; the holed one sets its
   // displaced spheres aside round by round, and a jammed remainder plus the set-aside spheres is the backbone.
   LoadTestOptions rounds;
   rounds.subpackingRounds = 6;
@@ -142,7 +143,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
     }
     EXPECT_NE(b.verdict.find("cell deformation"), std::string::npos) << b.verdict;
   }
-  // Sequential random loading (seed Algorithm 14): the intact packing barely moves; the holed one moves
+  // Sequential random loading (Donev 2006, thesis, Algorithm 14): the intact packing barely moves; the holed one moves
   // beyond the limits, and the motion it reports keeps every pair disjoint (the scaling stops at the first
   // true collision; IPM and simplex solutions are feasible to about 1e-9).
   LoadTestOptions sequential;
@@ -395,6 +396,21 @@ TEST(Compression, JammingDensityEstimate) {
   EXPECT_TRUE(std::isnan(jammingDensityEstimate(0.3, 2.0)));
 }
 
+TEST(Compression, ReopenRadiusFactorFollowsTheFreeVolumeLaw) {
+  for (double p : {10.0, 1e3, 1e8}) {
+    SCOPED_TRACE(p);
+    const double f = reopenRadiusFactor(p);
+    EXPECT_EQ(f, std::cbrt(1.0 - 3.0 / p));  // the factor `polydem jam --reopen` has always applied
+    // A packing jammed at phi_J, shrunk by f, sits at phi_J (1 - 3/p): the free-volume estimate gives back phi_J.
+    EXPECT_NEAR(jammingDensityEstimate(0.64 * f * f * f, p), 0.64, 1e-12);
+  }
+  EXPECT_LT(reopenRadiusFactor(10.0), reopenRadiusFactor(100.0));
+  EXPECT_THROW(reopenRadiusFactor(3.0), ConfigError);
+  EXPECT_THROW(reopenRadiusFactor(-1.0), ConfigError);
+  EXPECT_THROW(reopenRadiusFactor(std::numeric_limits<double>::infinity()), ConfigError);
+  EXPECT_THROW(reopenRadiusFactor(std::numeric_limits<double>::quiet_NaN()), ConfigError);
+}
+
 TEST(ContactNetwork, SimpleCubicLatticeAndARattler) {
   // 4 x 4 x 4 simple cubic lattice of touching unit spheres in a periodic box of 8: six contacts each.
   const int m = 4;
@@ -424,7 +440,7 @@ TEST(ContactNetwork, SimpleCubicLatticeAndARattler) {
 
 TEST(JammingTest, LatticesOfTheSeed) {
   ASSERT_TRUE(jammingTestAvailable()) << "built without GLPK: scripts/setup.sh installs libglpk-dev";
-  // FCC is collectively jammed, simple cubic is not (seed 001 Table 4.1, :5854-5935).
+  // FCC is collectively jammed, simple cubic is not (Donev 2006, thesis, Table 4.1).
   auto lattice = [](bool fcc, int m, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
     return testing::latticePacking(fcc, m, 0.0, x, r);
   };

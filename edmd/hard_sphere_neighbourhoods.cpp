@@ -1,0 +1,234 @@
+// HardSphereSystem, part: bounding neighbourhoods and near-neighbour lists (Donev 2006, thesis, §3.2.4):
+// global rebuilds through the shared broad phase, Morton renumbering, the skin rule and its adaptation,
+// the flat list storage, and neighbourhood exits answered by hood_grid.hpp.
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/errors.hpp"
+#include "core/morton.hpp"
+#include "edmd/hard_sphere_system.hpp"
+
+namespace polydem::edmd {
+
+// ---------------------------------------------------------------------------------------------------
+// Neighbourhoods
+
+void HardSphereSystem::sortSpatially() {
+  // Precondition: every particle advanced to clock_ (events are reset by the caller).
+  const Index n = count();
+  std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) {
+    const State& s = state_[static_cast<std::size_t>(i)];
+    keys[static_cast<std::size_t>(i)] = {mortonKey(s.x, box_, 10), i};
+  }
+  std::sort(keys.begin(), keys.end());
+  std::vector<State> state(state_.size());
+  std::vector<Index> external(external_.size());
+  std::vector<std::int64_t> runCounts(collisionsInRun_.size());
+  Eigen::VectorXd mass(n), inverseMass(n);
+  for (Index k = 0; k < n; ++k) {
+    const std::size_t from = static_cast<std::size_t>(keys[static_cast<std::size_t>(k)].second);
+    const std::size_t to = static_cast<std::size_t>(k);
+    state[to] = state_[from];
+    external[to] = external_[from];
+    runCounts[to] = collisionsInRun_[from];
+    mass[k] = mass_[static_cast<Index>(from)];
+    inverseMass[k] = inverseMass_[static_cast<Index>(from)];
+  }
+  state_.swap(state);
+  external_.swap(external);
+  collisionsInRun_.swap(runCounts);
+  mass_.swap(mass);
+  inverseMass_.swap(inverseMass);
+  collisionsAtSort_ = total_.collisions;
+  recent_ = {};
+}
+
+void HardSphereSystem::rebuildNeighbourhoods() {
+  // Precondition: every particle advanced to clock_.
+  const Index n = count();
+  if (n == 0) return;
+  sortSpatially();
+  double rmin = kInfinity;
+  for (const State& s : state_) rmin = std::min(rmin, radiusAt(s));
+  nbCentre_.resize(3, n);
+  nbRadius_.resize(n);
+  if (options_.adaptiveSkin &&
+      (total_.collisions - collisionsAtRebuild_) + (total_.exits - exitsAtRebuild_) >= std::int64_t{n}) {
+    const int trend = skinTrend();
+    if (trend > 0) skinFloor_ = std::min(skinFloor_ * 1.3, 1e3);
+    if (trend < 0) skinFloor_ = std::max(skinFloor_ / 1.15, options_.skinFloor);
+  }
+  collisionsAtRebuild_ = total_.collisions;
+  exitsAtRebuild_ = total_.exits;
+  pairsAtRebuild_ = pairWork_;
+  const double mu1 = options_.neighbourhoodScale - 1.0;
+  const double floor = skinFloor_ * rmin;
+  // The broad phase needs periodic edges of at least 4 neighbourhood radii.
+  double rmax = 0.0;
+  for (const State& s : state_) rmax = std::max(rmax, radiusAt(s));
+  const double skinLimit = 0.25 * periodicLength() * (1.0 - 1e-9) - rmax;
+  // Skins squeezed far below normal would make every sphere exit at once, rebuild after rebuild.
+  if (!(skinLimit > 0.1 * mu1 * rmin)) {
+    const std::string what = fmt::format(
+        "at t = {} the largest sphere (radius {}) leaves no room for its neighbourhood: 4 neighbourhood radii "
+        "must fit into the shortest periodic box edge {}; use more particles",
+        time(), rmax, periodicLength());
+    if (total_.rebuilds == 0) throw ConfigError(what);
+    throw SimulationError(what);
+  }
+  for (Index i = 0; i < n; ++i) {
+    const State& s = state_[static_cast<std::size_t>(i)];
+    Hood& h = hood_[static_cast<std::size_t>(i)];
+    const double r = radiusAt(s);
+    const double skin = std::max(std::min(r, options_.skinCap * rmin), floor * std::pow(rmin / r, 1.5));
+    h.skin = std::min(mu1 * skin, skinLimit);
+    h.radius = r + h.skin;
+    for (int k = 0; k < 3; ++k) h.centre[k] = s.x[k];
+    nbRadius_[i] = h.radius;
+    nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
+  }
+  const SphereView view{nbCentre_, nbRadius_};
+  try {
+    broad_->build(view, box_, 0.0);
+  } catch (const ConfigError& e) {
+    if (total_.rebuilds == 0) throw;
+    throw SimulationError(fmt::format(
+        "rebuilding the neighbour lists at t = {}: {} (the spheres have grown too large for this box: use more "
+        "particles)",
+        time(), e.what()));
+  }
+  broad_->findPairs(view, pairScratch_);
+  hoodGrid_.build(box_, nbCentre_, nbRadius_);
+  for (Hood& h : hood_) h.size = 0;
+  for (const broadphase::Pair& p : pairScratch_) {
+    ++hood_[static_cast<std::size_t>(p.i)].size;
+    ++hood_[static_cast<std::size_t>(p.j)].size;
+  }
+  Index offset = 0;
+  for (Hood& h : hood_) {
+    h.begin = offset;
+    h.capacity = h.size + 6 + h.size / 3;  // spare room for neighbourhood exits
+    offset += h.capacity;
+    h.size = 0;
+  }
+  nbData_.assign(static_cast<std::size_t>(offset), -1);
+  for (const broadphase::Pair& p : pairScratch_) {
+    Hood& a = hood_[static_cast<std::size_t>(p.i)];
+    Hood& b = hood_[static_cast<std::size_t>(p.j)];
+    nbData_[static_cast<std::size_t>(a.begin + a.size++)] = p.j;
+    nbData_[static_cast<std::size_t>(b.begin + b.size++)] = p.i;
+  }
+  // Sorted lists: the trajectory does not depend on the backend's pair order.
+  for (const Hood& h : hood_) std::sort(nbData_.begin() + h.begin, nbData_.begin() + h.begin + h.size);
+  ++total_.rebuilds;
+}
+
+void HardSphereSystem::relocateList(Index i, Index capacity) {
+  Hood& h = hood_[static_cast<std::size_t>(i)];
+  const Index begin = static_cast<Index>(nbData_.size());
+  nbData_.resize(nbData_.size() + static_cast<std::size_t>(capacity), -1);
+  std::copy(nbData_.begin() + h.begin, nbData_.begin() + h.begin + h.size, nbData_.begin() + begin);
+  h.begin = begin;
+  h.capacity = capacity;
+  ++total_.relocatedLists;
+}
+
+void HardSphereSystem::insertNeighbour(Index i, Index j) {
+  Hood& h = hood_[static_cast<std::size_t>(i)];
+  if (h.size == h.capacity) relocateList(i, 2 * h.capacity + 8);
+  Index* first = nbData_.data() + h.begin;
+  Index* last = first + h.size;
+  Index* at = std::lower_bound(first, last, j);
+  std::copy_backward(at, last, last + 1);
+  *at = j;
+  ++h.size;
+}
+
+void HardSphereSystem::eraseNeighbour(Index i, Index j) {
+  Hood& h = hood_[static_cast<std::size_t>(i)];
+  Index* first = nbData_.data() + h.begin;
+  Index* last = first + h.size;
+  Index* at = std::lower_bound(first, last, j);
+  if (at == last || *at != j) return;
+  std::copy(at + 1, last, at);
+  --h.size;
+}
+
+void HardSphereSystem::refreshNeighbourhood(Index i) {
+  const std::size_t ui = static_cast<std::size_t>(i);
+  const State& s = state_[ui];
+  auto restart = [&] {
+    advanceAll();
+    rebuildNeighbourhoods();
+    resetSchedule();
+  };
+  Hood& hood = hood_[ui];
+  if (hood.radius - radiusAt(s) < 0.5 * hood.skin) {
+    restart();  // growth has used half of the room: a new epoch with larger neighbourhoods
+    return;
+  }
+  if (options_.adaptiveSkin && total_.exits - exitsAtRebuild_ > 2 * std::int64_t{count()} && skinTrend() > 0) {
+    restart();  // skins too thin for how far the spheres fly: rebuild with a larger skin floor
+    return;
+  }
+  for (int k = 0; k < 3; ++k) hood.centre[k] = s.x[k];
+  nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
+  hoodGrid_.move(i, s.x);
+  hoodGrid_.overlapping(i, scratch_);
+  // Reverse entries: drop i from lists it left, add it to lists it entered (both lists sorted).
+  const std::span<const Index> old = neighboursOf(i);
+  added_.clear();
+  removed_.clear();
+  std::size_t a = 0, b = 0;
+  while (a < old.size() || b < scratch_.size()) {
+    if (b == scratch_.size() || (a < old.size() && old[a] < scratch_[b])) {
+      removed_.push_back(old[a++]);
+    } else if (a == old.size() || scratch_[b] < old[a]) {
+      added_.push_back(scratch_[b++]);
+    } else {
+      ++a;
+      ++b;
+    }
+  }
+  for (Index j : removed_) eraseNeighbour(j, i);
+  for (Index j : added_) insertNeighbour(j, i);
+  const Index size = static_cast<Index>(scratch_.size());
+  if (size > hood.capacity) relocateList(i, size + 8 + size / 2);
+  std::copy(scratch_.begin(), scratch_.end(), nbData_.begin() + hood.begin);
+  hood.size = size;
+  predict(i);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Skin adaptation
+
+int HardSphereSystem::skinTrend() const {
+  // Narrow distributions (size ratio < 2) keep the exits-per-collision rule: both rules leave their
+  // skins at the floor at phi 0.5, and it keeps the trajectories the jamming results of docs/edmd-results.md
+  // and tests/edmd were validated with.
+  if (sizeRatio_ < 2.0) {
+    const double exits = exitRatioSinceRebuild();
+    return exits > 0.8 ? 1 : (exits < 0.2 ? -1 : 0);
+  }
+  const double exitWork = options_.exitWork * static_cast<double>(total_.exits - exitsAtRebuild_);
+  const double pairWork = static_cast<double>(pairWork_ - pairsAtRebuild_);
+  if (exitWork > 2.0 * pairWork) return 1;
+  if (exitWork < 0.5 * pairWork) return -1;
+  return 0;
+}
+
+double HardSphereSystem::exitRatioSinceRebuild() const {
+  const std::int64_t collisions = total_.collisions - collisionsAtRebuild_;
+  return collisions > 0 ? static_cast<double>(total_.exits - exitsAtRebuild_) / static_cast<double>(collisions) : 0.0;
+}
+
+double HardSphereSystem::meanNeighbours() const {
+  double total = 0.0;
+  for (const Hood& h : hood_) total += h.size;
+  return count() ? total / count() : 0.0;
+}
+
+}  // namespace polydem::edmd
