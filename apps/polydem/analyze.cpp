@@ -4,7 +4,7 @@
 // channel sizes (--channels-csv), S(k) and chi(k) (--sk-csv), rattlers by speed (--velocity-rattlers).
 //
 // Verdicts only where they apply (issue 15): before any contact statistics or jamming verdict the input
-// must be a valid hard-sphere packing (edmd::requireHardSpherePacking: no overlap beyond the contact
+// must be a valid hard-sphere packing (jamming::requireHardSpherePacking: no overlap beyond the contact
 // tolerance, no density above what any packing of its radii can have); the contact tolerance comes from
 // the packing's reduced pressure, which is never assumed (the file's attribute, --pressure or
 // --contact-gap); quantities that do not exist for the input (no spheres, an empty backbone) are printed
@@ -28,9 +28,9 @@
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
-#include "edmd/contact_network.hpp"
-#include "edmd/jamming_test.hpp"
-#include "edmd/leak_test.hpp"
+#include "jamming/contact_network.hpp"
+#include "jamming/load_protocols.hpp"
+#include "jamming/pressure_leak.hpp"
 #include "structure/bond_order.hpp"
 #include "structure/channel_size.hpp"
 #include "structure/delaunay_neighbours.hpp"
@@ -102,7 +102,7 @@ void printHeader(const AnalyzeOptions& opt, const io::ParticleData& data) {
 /// --order, --channels-csv, --sk-csv, --velocity-rattlers: structure of any configuration. `net` (the
 /// contact network, if computed) lets the speed rattlers be compared with the contact-count ones.
 void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, bool velocityRattlers,
-                      double velocityThreshold, const edmd::ContactNetwork* net) {
+                      double velocityThreshold, const jamming::ContactNetwork* net) {
   const SphereView spheres{data.position, data.radius};
   const Index n = data.count();
   if (velocityRattlers) {
@@ -368,7 +368,7 @@ Runner addAnalyze(CLI::App& app) {
     if (opt->strict && opt->loadTest != "single") {
       throw ConfigError("--strict needs --load-test single (the sequential test keeps the cell fixed)");
     }
-    if (opt->certify && !opt->skipIdeal && !edmd::jammingTestAvailable()) {
+    if (opt->certify && !opt->skipIdeal && !jamming::jammingTestAvailable()) {
       throw ConfigError("--certify: the ideal-contact LP test needs GLPK (libglpk-dev), which this build did not "
                         "find; add --no-ideal to run the load test alone");
     }
@@ -475,17 +475,17 @@ Runner addAnalyze(CLI::App& app) {
           "pressure) or --contact-gap TAU (contact when gap <= TAU (r_i + r_j)), or --structure-only",
           opt->input));
     }
-    edmd::ContactOptions contact;
-    contact.relativeGap = opt->contactGap > 0.0 ? opt->contactGap : edmd::defaultContactGap(*pressure);
+    jamming::ContactOptions contact;
+    contact.relativeGap = opt->contactGap > 0.0 ? opt->contactGap : jamming::defaultContactGap(*pressure);
     contact.broadPhase = opt->broadPhase;
-    const edmd::PackingValidity validity = edmd::requireHardSpherePacking(
+    const jamming::PackingValidity validity = jamming::requireHardSpherePacking(
         spheres, data.box, {.overlapTolerance = contact.relativeGap, .broadPhase = opt->broadPhase}, opt->input,
         data.id);
     // Contacts are found by the minimum image; a periodic length below 2 (2 r_max + gap) would let a sphere
     // touch two images of another, which the search cannot represent.
-    const edmd::ContactNetwork net = [&] {
+    const jamming::ContactNetwork net = [&] {
       try {
-        return edmd::analyseContacts(spheres, data.box, contact);
+        return jamming::analyseContacts(spheres, data.box, contact);
       } catch (const ConfigError& e) {
         throw InputError(fmt::format("{}: the box is too small for the contact network: {}", opt->input, e.what()));
       }
@@ -509,7 +509,7 @@ Runner addAnalyze(CLI::App& app) {
       fmt::print("reduced pressure        unknown (no reduced_pressure attribute, no --pressure): phi_J estimate "
                  "undefined\n");
     }
-    const std::optional<edmd::PairGap> gap = edmd::smallestGap(spheres, data.box, opt->broadPhase);
+    const std::optional<jamming::PairGap> gap = jamming::smallestGap(spheres, data.box, opt->broadPhase);
     auto id = [&](Index i) { return data.id.empty() ? i : data.id[static_cast<std::size_t>(i)]; };
     if (gap) {
       fmt::print("smallest gap            {:.3g} (relative to r_i + r_j; negative = overlap), spheres {} and {}\n",
@@ -555,7 +555,7 @@ Runner addAnalyze(CLI::App& app) {
       for (int e = -15; e <= -1; ++e) {
         if (std::pow(10.0, e) <= tauLimit) taus.push_back(std::pow(10.0, e));
       }
-      const std::vector<double> z = edmd::cumulativeCoordination(spheres, data.box, taus, opt->broadPhase);
+      const std::vector<double> z = jamming::cumulativeCoordination(spheres, data.box, taus, opt->broadPhase);
       std::string line;
       for (std::size_t k = 0; k < taus.size(); ++k) line += fmt::format(" {:.0e}:{:.3f}", taus[k], z[k]);
       if (taus.size() < 15) {
@@ -570,14 +570,14 @@ Runner addAnalyze(CLI::App& app) {
       }
     }
     if (!opt->correlationCsv.empty()) {
-      const edmd::PairCorrelation g =
-          edmd::pairCorrelation(spheres, data.box, opt->correlationMax, opt->correlationBins, opt->broadPhase);
+      const jamming::PairCorrelation g =
+          jamming::pairCorrelation(spheres, data.box, opt->correlationMax, opt->correlationBins, opt->broadPhase);
       io::writeFileAtomically(opt->correlationCsv, csvText("x,g", g.x, g.g));
       fmt::print("wrote {}\n", opt->correlationCsv);
     }
     analyzeStructure(*opt, data, velocityRattlers, velocityThreshold, &net);
     if (opt->certify) {
-      edmd::ContactNetwork tested = net;
+      jamming::ContactNetwork tested = net;
       if (opt->removeSphere >= 0) {
         // The sphere disappears from the test (no constraints from it); the rattlers stay those of the
         // intact packing, so its neighbours keep being tested.
@@ -587,14 +587,14 @@ Runner addAnalyze(CLI::App& app) {
                    net.rattler[static_cast<std::size_t>(opt->removeSphere)] ? "a rattler" : "a backbone sphere");
       }
       if (!opt->skipIdeal) {
-        const edmd::JammingTestResult ideal = edmd::testCollectiveJamming(spheres, data.box, tested);
+        const jamming::JammingTestResult ideal = jamming::testCollectiveJamming(spheres, data.box, tested);
         fmt::print("ideal-contact LP test   {} ({:.2f} s{})\n", ideal.verdict, ideal.seconds,
                    ideal.lps > 0 ? fmt::format("; LP optima: opening {:.3g}, floppy {:.3g}", ideal.openingObjective,
                                                ideal.floppyObjective)
                                  : std::string("; no LP solved"));
         std::fflush(stdout);
       }
-      edmd::LoadTestOptions loadOptions;
+      jamming::LoadTestOptions loadOptions;
       loadOptions.gapTolerance = opt->loadGap;
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
@@ -610,11 +610,11 @@ Runner addAnalyze(CLI::App& app) {
         fmt::print("  load test: {}\n", line);
         std::fflush(stdout);
       };
-      loadOptions.solver = opt->lpSolver == "simplex"    ? edmd::LpSolver::Simplex
-                           : opt->lpSolver == "interior" ? edmd::LpSolver::InteriorPoint
-                                                         : edmd::LpSolver::Automatic;
+      loadOptions.solver = opt->lpSolver == "simplex"    ? jamming::LpSolver::Simplex
+                           : opt->lpSolver == "interior" ? jamming::LpSolver::InteriorPoint
+                                                         : jamming::LpSolver::Automatic;
       if (opt->removeSphere >= 0) loadOptions.removed.push_back(opt->removeSphere);
-      const edmd::LoadTestResult jam = edmd::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
+      const jamming::LoadTestResult jam = jamming::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
       if (jam.solver.empty()) {
         fmt::print("jamming test (loads)    {} (no LP solved)\n", jam.verdict);
       } else {
@@ -650,7 +650,7 @@ Runner addAnalyze(CLI::App& app) {
         watched.pop_back();
         fmt::print("leak test without sphere {} (the last sphere takes its number)\n", k);
       }
-      edmd::LeakTestOptions leak;
+      jamming::LeakTestOptions leak;
       leak.collisionsPerParticle = opt->leakCollisions;
       leak.blocks = opt->leakBlocks;
       leak.pressureTolerance = opt->leakTolerance;
@@ -659,8 +659,8 @@ Runner addAnalyze(CLI::App& app) {
         fmt::print("  leak test: {}\n", line);
         std::fflush(stdout);
       };
-      const edmd::LeakTestResult result = edmd::testPressureLeak(x, r, data.box, watched, leak);
-      if (result.outcome == edmd::JammingVerdict::NotTested) {
+      const jamming::LeakTestResult result = jamming::testPressureLeak(x, r, data.box, watched, leak);
+      if (result.outcome == jamming::JammingVerdict::NotTested) {
         fmt::print("pressure-leak test      {}\n", result.verdict);
       } else {
         fmt::print("pressure-leak test      {} ({} collisions, {:.1f} s, {:.3g} collisions/s)\n", result.verdict,

@@ -22,7 +22,7 @@
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
-#include "edmd/contact_network.hpp"
+#include "jamming/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
 
 namespace polydem::app {
@@ -628,10 +628,10 @@ Runner addJam(CLI::App& app) {
 
     const Eigen::Matrix3Xd x = system.positions();
     const Eigen::VectorXd r = system.radii();
-    edmd::ContactOptions contactOptions;
-    contactOptions.relativeGap = opt->contactGap > 0.0 ? opt->contactGap : edmd::defaultContactGap(pressure);
+    jamming::ContactOptions contactOptions;
+    contactOptions.relativeGap = opt->contactGap > 0.0 ? opt->contactGap : jamming::defaultContactGap(pressure);
     contactOptions.broadPhase = opt->broadPhase;
-    const edmd::ContactNetwork net = edmd::analyseContacts(SphereView{x, r}, system.box(), contactOptions);
+    const jamming::ContactNetwork net = jamming::analyseContacts(SphereView{x, r}, system.box(), contactOptions);
     const double phi = system.packingFraction();
     const double phiJ = edmd::jammingDensityEstimate(phi, pressure);
     const edmd::EventCounts& c = result.counts;

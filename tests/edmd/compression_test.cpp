@@ -9,13 +9,15 @@
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/size_distribution.hpp"
-#include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
-#include "edmd/jamming_test.hpp"
+#include "jamming/contact_network.hpp"
+#include "jamming/load_protocols.hpp"
 #include "tests/support/lattices.hpp"
 
 namespace polydem::edmd {
 namespace {
+
+using namespace jamming;  // the packings made here are certified by the jamming tests
 
 Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
   std::mt19937_64 rng(seed);

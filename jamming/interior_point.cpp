@@ -1,4 +1,4 @@
-#include "edmd/interior_point.hpp"
+#include "jamming/interior_point.hpp"
 
 #include <fmt/format.h>
 
@@ -12,16 +12,16 @@
 
 #include "core/errors.hpp"
 
-#if POLYDEM_EDMD_WITH_CHOLMOD
+#if POLYDEM_JAMMING_WITH_CHOLMOD
 #include <Eigen/CholmodSupport>
 #endif
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 namespace {
 
 using SparseMatrix = Eigen::SparseMatrix<double>;
-#if POLYDEM_EDMD_WITH_CHOLMOD
+#if POLYDEM_JAMMING_WITH_CHOLMOD
 using Cholesky = Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower>;
 #else
 using Cholesky = Eigen::SimplicialLLT<SparseMatrix, Eigen::Lower>;
@@ -50,7 +50,7 @@ struct SpdSolver::Impl {
   Cholesky cholesky;
 };
 SpdSolver::SpdSolver() : impl_(new Impl) {
-#if POLYDEM_EDMD_WITH_CHOLMOD
+#if POLYDEM_JAMMING_WITH_CHOLMOD
   impl_->cholesky.cholmod().print = 0;
 #endif
 }
@@ -61,7 +61,7 @@ bool SpdSolver::factor(const SparseMatrix& k) {
 }
 Eigen::VectorXd SpdSolver::solve(const Eigen::VectorXd& b) const { return impl_->cholesky.solve(b); }
 
-bool interiorPointUsesCholmod() { return POLYDEM_EDMD_WITH_CHOLMOD != 0; }
+bool interiorPointUsesCholmod() { return POLYDEM_JAMMING_WITH_CHOLMOD != 0; }
 
 InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::VectorXd& r, const Eigen::VectorXd& c,
                                         const InteriorPointOptions& options) {
@@ -74,7 +74,7 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
   double factorSeconds = 0.0;
   const SparseMatrix et = e.transpose();
   Cholesky cholesky;
-#if POLYDEM_EDMD_WITH_CHOLMOD
+#if POLYDEM_JAMMING_WITH_CHOLMOD
   cholesky.cholmod().print = 0;  // an indefinite matrix is handled below (shifted retry); no warning lines
 #endif
   // Factorise E D E^T; a matrix that round-off made indefinite (D spans ~20 decades near the optimum)
@@ -257,4 +257,4 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
   return out;
 }
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

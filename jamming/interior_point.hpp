@@ -18,7 +18,7 @@
 #include <Eigen/SparseCore>
 #include <string>
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 struct InteriorPointOptions {
   double tolerance = 1e-9;         ///< |E^T y + s - c| / (1 + |c|) and |c.z - r.y| / (1 + |c.z|)
@@ -68,4 +68,4 @@ class SpdSolver {
 InteriorPointResult solveStandardFormLp(const Eigen::SparseMatrix<double>& e, const Eigen::VectorXd& r,
                                         const Eigen::VectorXd& c, const InteriorPointOptions& options = {});
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

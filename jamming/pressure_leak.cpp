@@ -1,4 +1,4 @@
-#include "edmd/leak_test.hpp"
+#include "jamming/pressure_leak.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,7 @@
 #include "core/errors.hpp"
 #include "edmd/compression.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options) {
@@ -40,10 +40,11 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
     return out;
   }
   const auto start = std::chrono::steady_clock::now();
-  HardSphereSystem system(box, position, radius, maxwellBoltzmannVelocities(radius, options.seed), options.system);
+  edmd::HardSphereSystem system(box, position, radius, edmd::maxwellBoltzmannVelocities(radius, options.seed),
+                               options.system);
   system.setGrowthRate(0.0);
   system.setThermalSpeed(1.0);
-  const EventCounts initial = system.counts();
+  const edmd::EventCounts initial = system.counts();
   const Eigen::Matrix3Xd origin = system.positions();
 
   const double perBlock = options.collisionsPerParticle / options.blocks;
@@ -51,7 +52,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   double done = 0.0;
   for (int b = 0; b < options.blocks; ++b) {
     system.resetPressureWindow();
-    const EventCounts c = system.run(blockCollisions);
+    const edmd::EventCounts c = system.run(blockCollisions);
     system.synchronise();
     done += static_cast<double>(c.collisions) / static_cast<double>(std::max<Index>(n, 1));
     LeakBlock block;
@@ -114,7 +115,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   for (std::size_t k = 0; k < quarter; ++k) late += out.blocks[m - 1 - k].meanDisplacement;
   late /= static_cast<double>(quarter);
   const double end = out.blocks.back().meanDisplacement;
-  out.driftRatio = early > 0.0 ? late / early : (late > 0.0 ? HardSphereSystem::kInfinity : 1.0);
+  out.driftRatio = early > 0.0 ? late / early : (late > 0.0 ? edmd::HardSphereSystem::kInfinity : 1.0);
   const bool leak = !(out.pressureChange >= -options.pressureTolerance);
   const bool drift = !(out.driftRatio <= options.driftFactor);
   if (out.counts.collisions == 0 || !(first > 0.0)) {
@@ -138,4 +139,4 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   return out;
 }
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -18,7 +18,7 @@
 #include "core/box.hpp"
 #include "core/particle_store.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 /// Outcome of a jamming test. NotTested: the test did not run or cannot apply (no spheres, no LP solved,
 /// nothing to watch), so it says nothing either way; never read it as "jammed".
@@ -157,4 +157,4 @@ std::string describeInvalidPacking(const PackingValidity& validity, std::span<co
 PackingValidity requireHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options,
                                          const std::string& what, std::span<const Index> ids = {});
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

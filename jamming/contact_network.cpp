@@ -1,4 +1,4 @@
-#include "edmd/contact_network.hpp"
+#include "jamming/contact_network.hpp"
 
 #include <fmt/format.h>
 
@@ -10,7 +10,7 @@
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 std::string_view verdictName(JammingVerdict verdict) {
   switch (verdict) {
@@ -371,4 +371,4 @@ PairCorrelation pairCorrelation(const SphereView& spheres, const Box& box, doubl
   return out;
 }
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

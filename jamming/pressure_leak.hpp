@@ -15,10 +15,10 @@
 
 #include "core/box.hpp"
 #include "core/types.hpp"
-#include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
+#include "jamming/contact_network.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 struct LeakTestOptions {
   double collisionsPerParticle = 1e4;  ///< length of the run
@@ -31,7 +31,7 @@ struct LeakTestOptions {
   /// block; growth linear in time gives 1.75.
   double driftFactor = 1.5;
   std::uint64_t seed = 1;  ///< Maxwell-Boltzmann velocities, thermal speed 1
-  SystemOptions system;
+  edmd::SystemOptions system;
   std::function<void(const std::string&)> progress;  ///< one line per block
 };
 
@@ -54,7 +54,7 @@ struct LeakTestResult {
   /// no sphere watched (every sphere a rattler: a gas keeps its pressure without being jammed).
   JammingVerdict outcome = JammingVerdict::NotTested;
   std::string verdict;
-  EventCounts counts;
+  edmd::EventCounts counts;
   double seconds = 0.0;
 };
 
@@ -65,4 +65,4 @@ struct LeakTestResult {
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options);
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -1,4 +1,4 @@
-#include "edmd/jamming_test.hpp"
+#include "jamming/load_protocols.hpp"
 
 #include <fmt/format.h>
 
@@ -14,17 +14,17 @@
 #include <Eigen/SparseCore>
 
 #include "core/errors.hpp"
-#include "edmd/interior_point.hpp"
+#include "jamming/interior_point.hpp"
 
-#if POLYDEM_EDMD_WITH_GLPK
+#if POLYDEM_JAMMING_WITH_GLPK
 #include <glpk.h>
 #endif
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
-bool jammingTestAvailable() { return POLYDEM_EDMD_WITH_GLPK != 0; }
+bool jammingTestAvailable() { return POLYDEM_JAMMING_WITH_GLPK != 0; }
 
-#if POLYDEM_EDMD_WITH_GLPK
+#if POLYDEM_JAMMING_WITH_GLPK
 
 namespace {
 
@@ -327,7 +327,7 @@ struct LoadLp {
   std::vector<Eigen::Vector3d> normal;      // per constraint: u with u . (dR_i - dR_j) >= -h (walls: dR_j = 0)
 };
 
-#if POLYDEM_EDMD_WITH_GLPK
+#if POLYDEM_JAMMING_WITH_GLPK
 std::vector<double> solveLoadSimplex(const LoadLp& lp, const std::vector<double>& beta) {
   Lp glpk;
   glp_set_obj_dir(glpk.p, GLP_MAX);
@@ -862,7 +862,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   const bool useSimplex = options.solver == LpSolver::Simplex ||
                           (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
                            static_cast<Index>(movable.size()) <= kSimplexLimit);
-#if !POLYDEM_EDMD_WITH_GLPK
+#if !POLYDEM_JAMMING_WITH_GLPK
   if (useSimplex) throw ConfigError("the simplex jamming test needs GLPK (libglpk-dev), which this build did not find");
 #endif
   int ipIterations = 0;
@@ -900,7 +900,7 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
   int fallbacks = 0;
   auto solveLp = [&](const LoadLp& l, const std::vector<double>& beta) {
     ++lps;
-#if POLYDEM_EDMD_WITH_GLPK
+#if POLYDEM_JAMMING_WITH_GLPK
     if (useSimplex) {
       // x = 0 is always feasible and the box bounds the optimum, so a simplex failure or a "no feasible
       // solution" status is GLPK's round-off (seen with hard walls): the interior point solves the same LP.
@@ -1064,4 +1064,4 @@ LoadTestResult testJammingUnderLoad(const SphereView& spheres, const Box& box, c
 }
 
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -20,9 +20,9 @@
 #include <vector>
 
 #include "core/box.hpp"
-#include "edmd/contact_network.hpp"
+#include "jamming/contact_network.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 struct JammingTestResult {
   JammingVerdict outcome = JammingVerdict::NotTested;
@@ -124,4 +124,4 @@ JammingTestResult testCollectiveJamming(const SphereView& spheres, const Box& bo
                                         double tolerance = 1e-9, std::uint64_t seed = 1,
                                         int simplexLimit = kSimplexLimit);
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming
