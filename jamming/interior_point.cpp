@@ -152,7 +152,8 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     out.iterations = iteration;
     const double gap = std::abs(out.primalObjective - out.dualObjective) / (1.0 + std::abs(out.primalObjective));
     if (options.trace) {
-      fmt::print(stderr, "ip {:3d}  primal {:.6e}  dual {:.6e}  rp {:.2e}  rd {:.2e}  gap {:.2e}  mu {:.2e}  delta {:.1e}\n",
+      fmt::print(stderr,
+                 "ip {:3d}  primal {:.6e}  dual {:.6e}  rp {:.2e}  rd {:.2e}  gap {:.2e}  mu {:.2e}  delta {:.1e}\n",
                  iteration, out.primalObjective, out.dualObjective, out.primalResidual, out.dualResidual, gap, mu,
                  delta);
     }

@@ -29,6 +29,7 @@
 #include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
 #include "jamming/contact_network.hpp"
+#include "jamming/ideal_contacts.hpp"
 #include "jamming/load_protocols.hpp"
 #include "jamming/pressure_leak.hpp"
 #include "structure/bond_order.hpp"
@@ -599,7 +600,8 @@ Runner addAnalyze(CLI::App& app) {
       loadOptions.displacementLimit = opt->displacementLimit;
       loadOptions.loads = opt->loads;
       loadOptions.subpackingRounds = opt->subpackingRounds;
-      loadOptions.sequential = opt->loadTest == "sequential";
+      loadOptions.protocol =
+          opt->loadTest == "sequential" ? jamming::LoadProtocol::Sequential : jamming::LoadProtocol::SingleLp;
       loadOptions.beta = opt->beta;
       loadOptions.maxLimit = opt->maxLimit;
       loadOptions.meanLimit = opt->meanLimit;
@@ -614,7 +616,8 @@ Runner addAnalyze(CLI::App& app) {
                            : opt->lpSolver == "interior" ? jamming::LpSolver::InteriorPoint
                                                          : jamming::LpSolver::Automatic;
       if (opt->removeSphere >= 0) loadOptions.removed.push_back(opt->removeSphere);
-      const jamming::LoadTestResult jam = jamming::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
+      const jamming::LoadTestResult load = jamming::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
+      const jamming::LoadTestSummary& jam = jamming::summaryOf(load);
       if (jam.solver.empty()) {
         fmt::print("jamming test (loads)    {} (no LP solved)\n", jam.verdict);
       } else {

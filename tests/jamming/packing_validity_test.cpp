@@ -214,17 +214,18 @@ TEST(JammingVerdicts, NoLoadsIsRefusedAndNoSpheresIsNotTested) {
   LoadTestOptions none;
   none.loads = 0;
   EXPECT_THROW(testJammingUnderLoad(spheres, box, net, none), ConfigError);
-  none.sequential = true;
+  none.protocol = LoadProtocol::Sequential;
   EXPECT_THROW(testJammingUnderLoad(spheres, box, net, none), ConfigError);
 
   const Eigen::Matrix3Xd noCentre(3, 0);
   const Eigen::VectorXd noRadius(0);
   const SphereView empty{noCentre, noRadius};
   const ContactNetwork emptyNet = analyseContacts(empty, box, {});
-  for (bool sequential : {false, true}) {
+  for (LoadProtocol protocol : {LoadProtocol::SingleLp, LoadProtocol::Sequential}) {
     LoadTestOptions options;
-    options.sequential = sequential;
-    const LoadTestResult load = testJammingUnderLoad(empty, box, emptyNet, options);
+    options.protocol = protocol;
+    const LoadTestResult result = testJammingUnderLoad(empty, box, emptyNet, options);
+    const LoadTestSummary& load = summaryOf(result);
     EXPECT_EQ(load.outcome, JammingVerdict::NotTested);
     EXPECT_FALSE(load.jammed);
     EXPECT_EQ(load.verdict.find("jammed"), std::string::npos) << load.verdict;
@@ -237,7 +238,7 @@ TEST(JammingVerdicts, NoLoadsIsRefusedAndNoSpheresIsNotTested) {
     const JammingTestResult fcc = testCollectiveJamming(spheres, box, net);
     EXPECT_EQ(fcc.outcome, JammingVerdict::Jammed) << fcc.verdict;
     EXPECT_GT(fcc.lps, 0);
-    const LoadTestResult loaded = testJammingUnderLoad(spheres, box, net);
+    const SingleLoadResult loaded = testSingleLoads(spheres, box, net);
     EXPECT_EQ(loaded.outcome, JammingVerdict::Jammed) << loaded.verdict;
   }
   EXPECT_EQ(verdictName(JammingVerdict::NotTested), "not tested");
@@ -253,7 +254,7 @@ TEST(JammingVerdicts, AGasIsUnjammedNotJammed) {
   const SphereView spheres{x, r};
   const ContactNetwork net = analyseContacts(spheres, box, {});
   EXPECT_EQ(net.backbone, 0);
-  const LoadTestResult load = testJammingUnderLoad(spheres, box, net);
+  const SingleLoadResult load = testSingleLoads(spheres, box, net);
   EXPECT_EQ(load.outcome, JammingVerdict::Unjammed);
   EXPECT_FALSE(load.jammed);
   if (jammingTestAvailable()) {
