@@ -1,11 +1,11 @@
 #pragma once
-// The pressure-leak test for jamming (seed 001 ch. 9.3.1, shared/seeds/001_3d36564c50aaa2ef.txt:11163-11189,
-// Fig. 9.3; digest §3.6): run plain event-driven dynamics (no growth) on the final packing for thousands
-// of collisions per particle and watch the block-averaged reduced pressure and the displacement of the
-// spheres from where they started. A jammed packing keeps its pressure and its backbone stays inside
-// its jamming polytope (displacements of the order of the jamming gap); a packing that is not truly
-// jammed leaks pressure slowly while its spheres drift away from the initial configuration. The seed
-// used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and N > ~1000, where its
+// The pressure-leak test for jamming (A. Donev, "Jammed Packings of Hard Particles", PhD thesis, Princeton
+// University (2006), §9.3.1, Fig. 9.3): run plain event-driven dynamics (no growth) on the final packing
+// for thousands of collisions per particle and watch the block-averaged reduced pressure and the
+// displacement of the spheres from where they started. A jammed packing keeps its pressure and its
+// backbone stays inside its jamming polytope (displacements of the order of the jamming gap); a packing
+// that is not truly jammed leaks pressure slowly while its spheres drift away from the initial
+// configuration. Donev used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and N > ~1000, where its
 // LP library was neither accurate nor large enough, and found that the two signals always agreed.
 #include <Eigen/Core>
 #include <cstdint>

@@ -1,6 +1,6 @@
-// The pressure-leak test (jamming/pressure_leak.hpp; seed 001 ch. 9.3.1): FCC just below close packing keeps its
-// pressure and its spheres stay in their cages; simple cubic at the same gap is not jammed (its rows
-// slide, seed Table 4.1) and its spheres drift away from the lattice.
+// The pressure-leak test (jamming/pressure_leak.hpp; Donev 2006 thesis, §9.3.1): FCC just below close packing keeps
+// its pressure and its spheres stay in their cages; simple cubic at the same gap is not jammed (its rows
+// slide, Donev 2006, Table 4.1) and its spheres drift away from the lattice.
 #include "jamming/pressure_leak.hpp"
 
 #include <gtest/gtest.h>
