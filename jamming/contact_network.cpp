@@ -12,20 +12,6 @@
 
 namespace polydem::jamming {
 
-std::string_view verdictName(JammingVerdict verdict) {
-  switch (verdict) {
-    case JammingVerdict::Jammed:
-      return "jammed";
-    case JammingVerdict::Unjammed:
-      return "unjammed";
-    case JammingVerdict::Undecided:
-      return "undecided";
-    case JammingVerdict::NotTested:
-      break;
-  }
-  return "not tested";
-}
-
 namespace {
 
 // Brute force below this many spheres: N^2 / 2 = 2e6 distance evaluations take milliseconds, and it has

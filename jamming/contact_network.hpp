@@ -12,7 +12,6 @@
 #include <optional>
 #include <span>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
@@ -20,13 +19,6 @@
 #include "core/particle_store.hpp"
 
 namespace polydem::jamming {
-
-/// Outcome of a jamming test. NotTested: the test did not run or cannot apply (no spheres, no LP solved,
-/// nothing to watch), so it says nothing either way; never read it as "jammed".
-enum class JammingVerdict { NotTested, Jammed, Unjammed, Undecided };
-
-/// "not tested", "jammed", "unjammed", "undecided".
-std::string_view verdictName(JammingVerdict verdict);
 
 struct ContactOptions {
   double relativeGap = 1e-8;  ///< tau: contact when gap <= tau (r_i + r_j)

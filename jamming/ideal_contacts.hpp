@@ -20,6 +20,7 @@
 #include "core/box.hpp"
 #include "jamming/contact_network.hpp"
 #include "jamming/lp_solver.hpp"
+#include "jamming/verdict.hpp"
 
 namespace polydem::jamming {
 

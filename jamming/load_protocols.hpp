@@ -24,6 +24,7 @@
 #include "jamming/contact_network.hpp"
 #include "jamming/ideal_contacts.hpp"
 #include "jamming/lp_solver.hpp"
+#include "jamming/verdict.hpp"
 
 namespace polydem::jamming {
 

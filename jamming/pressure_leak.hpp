@@ -17,6 +17,7 @@
 #include "core/types.hpp"
 #include "edmd/hard_sphere_system.hpp"
 #include "jamming/contact_network.hpp"
+#include "jamming/verdict.hpp"
 
 namespace polydem::jamming {
 
