@@ -68,7 +68,8 @@ std::vector<double> cumulativeCoordination(const SphereView& spheres, const Box&
 /// Pair correlation of the centre distance scaled by the pair's contact distance, x = |r_ij| / (r_i + r_j),
 /// on [0, xMax) in `bins` bins, normalised by the ideal-gas count sum_{i != j} (r_i + r_j)^3 (4 pi / 3V)
 /// (x_hi^3 - x_lo^3): 1 at large x, a delta-like peak at x = 1 for a jammed packing; works for any size
-/// distribution (Donev 2006, §9.3.1, defines g2 and Z(l) for equal spheres). Periodic boxes; O(N x neighbours within xMax).
+/// distribution (Donev 2006, §9.3.1, defines g2 and Z(l) for equal spheres). Periodic boxes; O(N x neighbours
+/// within xMax).
 struct PairCorrelation {
   std::vector<double> x;  ///< bin centres
   std::vector<double> g;

@@ -2,13 +2,12 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/SparseCore>
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <random>
 #include <vector>
-
-#include <Eigen/SparseCore>
 
 #include "core/errors.hpp"
 #include "jamming/glpk_simplex.hpp"
@@ -53,8 +52,8 @@ void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<I
   am.setFromTriplets(t.begin(), t.end());
   const Eigen::SparseMatrix<double> k = am * am.transpose();
   SpdSolver solver;
-  const std::string method = fmt::format("augmented-system certificate, {} backbone spheres, {} contacts",
-                                         backbone.size(), a.rows);
+  const std::string method =
+      fmt::format("augmented-system certificate, {} backbone spheres, {} contacts", backbone.size(), a.rows);
   if (!solver.factor(k)) {
     result.outcome = JammingVerdict::Unjammed;
     result.verdict = fmt::format("unjammed: rigidity matrix rank deficient (floppy modes; {})", method);
@@ -81,9 +80,10 @@ void augmentedCertificate(const Rigidity& a, const Box& box, const std::vector<I
   }
   if (lambdaMin < 1e-12 * lambdaMax) {
     result.outcome = JammingVerdict::Unjammed;
-    result.verdict = fmt::format("unjammed: rigidity matrix numerically rank deficient (lambda_min / lambda_max = "
-                                 "{:.1e}; {})",
-                                 lambdaMin / lambdaMax, method);
+    result.verdict = fmt::format(
+        "unjammed: rigidity matrix numerically rank deficient (lambda_min / lambda_max = "
+        "{:.1e}; {})",
+        lambdaMin / lambdaMax, method);
     for (std::size_t b = 0; b < backbone.size(); ++b) {
       for (int c = 0; c < 3; ++c) {
         const int f = freeCol[3 * b + static_cast<std::size_t>(c)];
@@ -182,8 +182,7 @@ void openingLp(const Rigidity& a, const Box& box, const std::vector<Index>& back
     for (int r = 1; r <= a.rows; ++r) result.contactsOpened += glp_get_row_prim(lp.p, r) > 1e-6 ? 1 : 0;
     motionFrom(lp.p, backbone, result);
     result.outcome = JammingVerdict::Unjammed;
-    result.verdict =
-        fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
+    result.verdict = fmt::format("unjammed: a motion opens {} of {} backbone contacts", result.contactsOpened, a.rows);
   }
 }
 

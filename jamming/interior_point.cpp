@@ -44,6 +44,114 @@ SparseMatrix normalMatrix(const SparseMatrix& e, const SparseMatrix& et, const E
   return k;
 }
 
+// Factorises E D E^T; a matrix that round-off made indefinite (D spans ~20 decades near the optimum)
+// gets a growing multiple of the identity, which only damps the Newton step.
+struct NormalFactor {
+  NormalFactor(const SparseMatrix& e, const SparseMatrix& et) : e(e), et(et) {
+#if POLYDEM_JAMMING_WITH_CHOLMOD
+    cholesky.cholmod().print = 0;  // an indefinite matrix is handled below (shifted retry); no warning lines
+#endif
+  }
+  bool factorise(const Eigen::VectorXd& d) {
+    const auto start = std::chrono::steady_clock::now();
+    SparseMatrix k = normalMatrix(e, et, d, 0.0);
+    const double scale = k.diagonal().maxCoeff();
+    double shift = 0.0;
+    bool ok = false;
+    for (int attempt = 0; attempt < 8 && !ok; ++attempt) {
+      if (attempt > 0) {
+        const double next = attempt == 1 ? 1e-14 * scale : shift * 100.0;
+        for (Eigen::Index i = 0; i < k.rows(); ++i) k.coeffRef(i, i) += next - shift;
+        shift = next;
+      }
+      cholesky.factorize(k);
+      ok = cholesky.info() == Eigen::Success;
+    }
+    delta = shift;
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return ok;
+  }
+  const SparseMatrix& e;
+  const SparseMatrix& et;
+  Cholesky cholesky;
+  double delta = 0.0;    // the last shift used (reported)
+  double seconds = 0.0;  // in the factorisations
+};
+
+// Gondzio's centrality correctors (J. Gondzio, Comput. Optim. Appl. 6, 137 (1996)) for the step (dz, ds,
+// dy) with step lengths stepP, stepD; returns how many were accepted.
+int centralityCorrectors(const Cholesky& cholesky, const SparseMatrix& e, const SparseMatrix& et,
+                         const Eigen::VectorXd& z, const Eigen::VectorXd& s, const Eigen::VectorXd& d, double target,
+                         int maxCorrectors, double& stepP, double& stepD, Eigen::VectorXd& dz, Eigen::VectorXd& ds,
+                         Eigen::VectorXd& dy) {
+  const Eigen::Index n = z.size();
+  int correctors = 0;
+  for (int k = 0; k < maxCorrectors; ++k) {
+    const double trialP = std::min(1.0, 1.5 * stepP + 0.1), trialD = std::min(1.0, 1.5 * stepD + 0.1);
+    const Eigen::VectorXd v = (z + trialP * dz).cwiseProduct(s + trialD * ds);
+    Eigen::VectorXd corr(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      corr[i] = std::clamp(v[i], 0.1 * target, 10.0 * target) - v[i];
+      corr[i] = std::max(corr[i], -10.0 * target);
+    }
+    // Newton step for the correction alone (zero residuals): K dy = -E (corr / s).
+    const Eigen::VectorXd corrOverS = corr.cwiseQuotient(s);
+    const Eigen::VectorXd dyc = cholesky.solve(Eigen::VectorXd(-(e * corrOverS)));
+    const Eigen::VectorXd dsc = -(et * dyc);
+    const Eigen::VectorXd dzc = corrOverS - d.cwiseProduct(dsc);
+    const Eigen::VectorXd dzNew = dz + dzc, dsNew = ds + dsc;
+    const double newP = maxStep(z, dzNew), newD = maxStep(s, dsNew);
+    if (std::min(newP, newD) < 1.01 * std::min(stepP, stepD) + 0.01) break;
+    dz = dzNew;
+    ds = dsNew;
+    dy += dyc;
+    stepP = newP;
+    stepD = newD;
+    ++correctors;
+  }
+  return correctors;
+}
+
+// Mehrotra's starting point: least-norm z with E z = r and least-squares s = c - E^T y, shifted positive.
+// False if E E^T is not positive definite.
+bool startingPoint(NormalFactor& factor, const SparseMatrix& e, const SparseMatrix& et, const Eigen::VectorXd& r,
+                   const Eigen::VectorXd& c, Eigen::VectorXd& y, Eigen::VectorXd& s, Eigen::VectorXd& z) {
+  Eigen::VectorXd ones = Eigen::VectorXd::Ones(e.cols());
+  factor.cholesky.analyzePattern(normalMatrix(e, et, ones, 0.0));
+  if (!factor.factorise(ones)) return false;
+  y = factor.cholesky.solve(e * c);
+  s = c - et * y;
+  z = et * factor.cholesky.solve(r);
+  z.array() += std::max(-1.5 * z.minCoeff(), 0.0);
+  s.array() += std::max(-1.5 * s.minCoeff(), 0.0);
+  {
+    const double zs = std::max(z.dot(s), 1e-12);
+    z.array() += 0.5 * zs / std::max(s.sum(), 1e-12);
+    s.array() += 0.5 * zs / std::max(z.sum(), 1e-12);
+    // Degenerate data (c = 0 or r = 0) can leave zeros.
+    z = z.cwiseMax(1e-8);
+    s = s.cwiseMax(1e-8);
+  }
+  return true;
+}
+
+// Not converged: the best iterate, with why the method stopped (the last iteration's count kept).
+InteriorPointResult bestIterate(InteriorPointResult out, InteriorPointResult best,
+                                const InteriorPointOptions& options) {
+  const std::string why =
+      out.message.empty() ? fmt::format("no convergence in {} iterations", options.maxIterations) : out.message;
+  const int iterations = out.iterations;
+  out = std::move(best);
+  out.converged = false;
+  out.message = fmt::format(
+      "{}; best iterate (iteration {}): primal residual {:.1e}, dual residual {:.1e}, gap "
+      "{:.1e}",
+      why, out.iterations, out.primalResidual, out.dualResidual,
+      std::abs(out.primalObjective - out.dualObjective) / (1.0 + std::abs(out.primalObjective)));
+  out.iterations = iterations;
+  return out;
+}
+
 }  // namespace
 
 struct SpdSolver::Impl {
@@ -67,58 +175,19 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
                                         const InteriorPointOptions& options) {
   const Eigen::Index m = e.rows(), n = e.cols();
   if (r.size() != m || c.size() != n) {
-    throw SimulationError(fmt::format("interior point: E is {} x {}, r has {} and c {} entries", m, n, r.size(),
-                                      c.size()));
+    throw SimulationError(
+        fmt::format("interior point: E is {} x {}, r has {} and c {} entries", m, n, r.size(), c.size()));
   }
   InteriorPointResult out;
-  double factorSeconds = 0.0;
   const SparseMatrix et = e.transpose();
-  Cholesky cholesky;
-#if POLYDEM_JAMMING_WITH_CHOLMOD
-  cholesky.cholmod().print = 0;  // an indefinite matrix is handled below (shifted retry); no warning lines
-#endif
-  // Factorise E D E^T; a matrix that round-off made indefinite (D spans ~20 decades near the optimum)
-  // gets a growing multiple of the identity, which only damps the Newton step.
-  double delta = 0.0;  // the last shift used (reported)
-  auto factorise = [&](const Eigen::VectorXd& d) {
-    const auto start = std::chrono::steady_clock::now();
-    SparseMatrix k = normalMatrix(e, et, d, 0.0);
-    const double scale = k.diagonal().maxCoeff();
-    double shift = 0.0;
-    bool ok = false;
-    for (int attempt = 0; attempt < 8 && !ok; ++attempt) {
-      if (attempt > 0) {
-        const double next = attempt == 1 ? 1e-14 * scale : shift * 100.0;
-        for (Eigen::Index i = 0; i < k.rows(); ++i) k.coeffRef(i, i) += next - shift;
-        shift = next;
-      }
-      cholesky.factorize(k);
-      ok = cholesky.info() == Eigen::Success;
-    }
-    delta = shift;
-    factorSeconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return ok;
-  };
+  NormalFactor factor(e, et);
+  Cholesky& cholesky = factor.cholesky;
+  auto factorise = [&](const Eigen::VectorXd& d) { return factor.factorise(d); };
 
-  // Mehrotra's starting point: least-norm z with E z = r and least-squares s = c - E^T y, shifted positive.
-  Eigen::VectorXd ones = Eigen::VectorXd::Ones(n);
-  cholesky.analyzePattern(normalMatrix(e, et, ones, 0.0));
-  if (!factorise(ones)) {
+  Eigen::VectorXd y, s, z;
+  if (!startingPoint(factor, e, et, r, c, y, s, z)) {
     out.message = "E E^T is not positive definite (E lacks full row rank)";
     return out;
-  }
-  Eigen::VectorXd y = cholesky.solve(e * c);
-  Eigen::VectorXd s = c - et * y;
-  Eigen::VectorXd z = et * cholesky.solve(r);
-  z.array() += std::max(-1.5 * z.minCoeff(), 0.0);
-  s.array() += std::max(-1.5 * s.minCoeff(), 0.0);
-  {
-    const double zs = std::max(z.dot(s), 1e-12);
-    z.array() += 0.5 * zs / std::max(s.sum(), 1e-12);
-    s.array() += 0.5 * zs / std::max(z.sum(), 1e-12);
-    // Degenerate data (c = 0 or r = 0) can leave zeros.
-    z = z.cwiseMax(1e-8);
-    s = s.cwiseMax(1e-8);
   }
 
   const double rNorm = 1.0 + r.norm(), cNorm = 1.0 + c.norm();
@@ -155,10 +224,10 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
       fmt::print(stderr,
                  "ip {:3d}  primal {:.6e}  dual {:.6e}  rp {:.2e}  rd {:.2e}  gap {:.2e}  mu {:.2e}  delta {:.1e}\n",
                  iteration, out.primalObjective, out.dualObjective, out.primalResidual, out.dualResidual, gap, mu,
-                 delta);
+                 factor.delta);
     }
-    const double merit = std::max({out.primalResidual / options.primalTolerance,
-                                   out.dualResidual / options.tolerance, gap / options.tolerance});
+    const double merit = std::max(
+        {out.primalResidual / options.primalTolerance, out.dualResidual / options.tolerance, gap / options.tolerance});
     keepBest(merit);
     if (merit <= 1.0) {
       out.converged = true;
@@ -201,31 +270,8 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     // each costs one solve with the same factor (~3% of a factorisation here). Accepted while they
     // lengthen the step.
     double stepP = maxStep(z, dz), stepD = maxStep(s, ds);
-    int correctors = 0;
-    for (int k = 0; k < options.centralityCorrectors; ++k) {
-      const double target = sigma * mu;
-      const double trialP = std::min(1.0, 1.5 * stepP + 0.1), trialD = std::min(1.0, 1.5 * stepD + 0.1);
-      const Eigen::VectorXd v = (z + trialP * dz).cwiseProduct(s + trialD * ds);
-      Eigen::VectorXd corr(n);
-      for (Eigen::Index i = 0; i < n; ++i) {
-        corr[i] = std::clamp(v[i], 0.1 * target, 10.0 * target) - v[i];
-        corr[i] = std::max(corr[i], -10.0 * target);
-      }
-      // Newton step for the correction alone (zero residuals): K dy = -E (corr / s).
-      const Eigen::VectorXd corrOverS = corr.cwiseQuotient(s);
-      const Eigen::VectorXd dyc = cholesky.solve(Eigen::VectorXd(-(e * corrOverS)));
-      const Eigen::VectorXd dsc = -(et * dyc);
-      const Eigen::VectorXd dzc = corrOverS - d.cwiseProduct(dsc);
-      const Eigen::VectorXd dzNew = dz + dzc, dsNew = ds + dsc;
-      const double newP = maxStep(z, dzNew), newD = maxStep(s, dsNew);
-      if (std::min(newP, newD) < 1.01 * std::min(stepP, stepD) + 0.01) break;
-      dz = dzNew;
-      ds = dsNew;
-      dy += dyc;
-      stepP = newP;
-      stepD = newD;
-      ++correctors;
-    }
+    const int correctors = centralityCorrectors(cholesky, e, et, z, s, d, sigma * mu, options.centralityCorrectors,
+                                                stepP, stepD, dz, ds, dy);
     constexpr double kEta = 0.995;
     const double alphaP = std::min(1.0, kEta * stepP);
     const double alphaD = std::min(1.0, kEta * stepD);
@@ -242,19 +288,9 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     out.y = std::move(y);
     out.s = std::move(s);
   } else {
-    const std::string why = out.message.empty() ? fmt::format("no convergence in {} iterations", options.maxIterations)
-                                                : out.message;
-    const int iterations = out.iterations;
-    out = std::move(best);
-    out.converged = false;
-    out.message = fmt::format("{}; best iterate (iteration {}): primal residual {:.1e}, dual residual {:.1e}, gap "
-                              "{:.1e}",
-                              why, out.iterations, out.primalResidual, out.dualResidual,
-                              std::abs(out.primalObjective - out.dualObjective) /
-                                  (1.0 + std::abs(out.primalObjective)));
-    out.iterations = iterations;
+    out = bestIterate(std::move(out), std::move(best), options);
   }
-  out.factorSeconds = factorSeconds;
+  out.factorSeconds = factor.seconds;
   return out;
 }
 

@@ -2,12 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
-
-#include <Eigen/LU>
 
 #include "core/errors.hpp"
 #include "jamming/glpk_simplex.hpp"
@@ -242,8 +241,8 @@ Index markLocalRattlers(const LoadLp& lp, const std::vector<int>& slot, std::vec
     }
     Eigen::Vector3d b(normal(rng), normal(rng), normal(rng));
     b.normalize();
-    const double largest = std::max(localLoadOptimum(a, h, b, 2.0 * limit).norm(),
-                                    localLoadOptimum(a, h, -b, 2.0 * limit).norm());
+    const double largest =
+        std::max(localLoadOptimum(a, h, b, 2.0 * limit).norm(), localLoadOptimum(a, h, -b, 2.0 * limit).norm());
     if (largest > limit) {
       loaded[m] = 0;
       ++marked;
@@ -256,8 +255,8 @@ Index markLocalRattlers(const LoadLp& lp, const std::vector<int>& slot, std::vec
 // walls of `lp` disjoint: the first root of |d + t v| = r_i + r_j along the straight line, in the
 // cancellation-free form. Pairs not in `lp` are farther apart than gapTolerance (r_i + r_j) and close by at
 // most 2 t max|dr|, which caps t (Donev 2006, §4.6.2.3, where the EDMD predictor plays this role).
-double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Eigen::VectorXd& radius,
-                      const Box& box, const Eigen::Matrix3Xd& dr, double gapTolerance) {
+double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Eigen::VectorXd& radius, const Box& box,
+                      const Eigen::Matrix3Xd& dr, double gapTolerance) {
   const double largest = dr.colwise().norm().maxCoeff();
   if (largest <= 0.0) return 0.0;
   double t = gapTolerance * radius.minCoeff() / largest;
@@ -284,13 +283,13 @@ double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Ei
 }
 void requireLoads(const LoadTestOptions& options) {
   if (options.loads < 1) {
-    throw ConfigError(fmt::format("jamming test: loads must be >= 1, got {} (a test without loads proves nothing)",
-                                  options.loads));
+    throw ConfigError(
+        fmt::format("jamming test: loads must be >= 1, got {} (a test without loads proves nothing)", options.loads));
   }
 }
 
-LoadProblem::LoadProblem(const SphereView& s, const Box& b, const ContactNetwork& network,
-                         const LoadTestOptions& o, LoadProtocol protocol)
+LoadProblem::LoadProblem(const SphereView& s, const Box& b, const ContactNetwork& network, const LoadTestOptions& o,
+                         LoadProtocol protocol)
     : spheres(s),
       box(b),
       options(o),
@@ -358,9 +357,9 @@ bool LoadProblem::prepare(LoadTestSummary& result) {
   }
   result.constraints = lp.rows;
   cols = lp.cols;
-  useSimplex_ = options.solver == LpSolver::Simplex ||
-                (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
-                 static_cast<Index>(movable.size()) <= kSimplexLimit);
+  useSimplex_ =
+      options.solver == LpSolver::Simplex || (options.solver == LpSolver::Automatic && jammingTestAvailable() &&
+                                              static_cast<Index>(movable.size()) <= kSimplexLimit);
 #if !POLYDEM_JAMMING_WITH_GLPK
   if (useSimplex_) {
     throw ConfigError("the simplex jamming test needs GLPK (libglpk-dev), which this build did not find");
@@ -370,9 +369,10 @@ bool LoadProblem::prepare(LoadTestSummary& result) {
   if (options.localRattlers) {
     result.localRattlers = markLocalRattlers(lp, slot, loaded, options.displacementLimit, rng_);
     if (options.progress) {
-      options.progress(fmt::format("local LP (neighbours fixed, loads +-b): {} more spheres move alone by more "
-                                   "than {:.1e} D and carry no load",
-                                   result.localRattlers, options.displacementLimit));
+      options.progress(
+          fmt::format("local LP (neighbours fixed, loads +-b): {} more spheres move alone by more "
+                      "than {:.1e} D and carry no load",
+                      result.localRattlers, options.displacementLimit));
     }
     if (std::count(loaded.begin(), loaded.end(), 1) < 2) {
       result.outcome = JammingVerdict::Unjammed;
@@ -428,13 +428,13 @@ std::vector<double> LoadProblem::solve(const LoadLp& l, const std::vector<double
 }
 
 std::string LoadProblem::solverName() const {
-  return useSimplex_ ? (fallbacks_ == 0 ? std::string("GLPK simplex")
-                                        : fmt::format("GLPK simplex; {} of {} LPs by the interior point after a "
-                                                      "simplex failure ({} iterations)",
-                                                      fallbacks_, lps_, ipIterations_))
-                     : fmt::format("interior point ({}, {} iterations over {} LPs)",
-                                   interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky",
-                                   ipIterations_, lps_);
+  return useSimplex_
+             ? (fallbacks_ == 0 ? std::string("GLPK simplex")
+                                : fmt::format("GLPK simplex; {} of {} LPs by the interior point after a "
+                                              "simplex failure ({} iterations)",
+                                              fallbacks_, lps_, ipIterations_))
+             : fmt::format("interior point ({}, {} iterations over {} LPs)",
+                           interiorPointUsesCholmod() ? "CHOLMOD" : "Eigen simplicial Cholesky", ipIterations_, lps_);
 }
 
 double LoadProblem::elapsed() const {

@@ -25,7 +25,7 @@ struct LoadLp {
   std::vector<double> gap;
   std::vector<char> pinned;  // per coordinate
   double bound = 10.0;
-  std::vector<double> columnBound;  // per coordinate if not empty (overrides bound)
+  std::vector<double> columnBound;          // per coordinate if not empty (overrides bound)
   std::vector<std::array<Index, 2>> pairs;  // per constraint: spheres i, j (j = -1 - wall for a wall)
   std::vector<Eigen::Vector3d> normal;      // per constraint: u with u . (dR_i - dR_j) >= -h (walls: dR_j = 0)
 };
@@ -48,15 +48,15 @@ Index markLocalRattlers(const LoadLp& lp, const std::vector<int>& slot, std::vec
 
 /// Largest t such that moving every sphere i by t dr_i from `centre` keeps the pairs and walls of `lp`
 /// disjoint, capped where pairs outside `lp` could meet.
-double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Eigen::VectorXd& radius,
-                      const Box& box, const Eigen::Matrix3Xd& dr, double gapTolerance);
+double largestScaling(const LoadLp& lp, const Eigen::Matrix3Xd& centre, const Eigen::VectorXd& radius, const Box& box,
+                      const Eigen::Matrix3Xd& dr, double gapTolerance);
 
 /// One load test's shared state: the movable and loaded spheres, the first load LP, the random loads
 /// (zero net force), the pinned sphere and the LP solver with its counts.
 class LoadProblem {
  public:
-  LoadProblem(const SphereView& spheres, const Box& box, const ContactNetwork& network,
-              const LoadTestOptions& options, LoadProtocol protocol);
+  LoadProblem(const SphereView& spheres, const Box& box, const ContactNetwork& network, const LoadTestOptions& options,
+              LoadProtocol protocol);
   /// Validates the options and builds the first LP and the local rattlers; false if that decided the test
   /// (no spheres, no backbone, nothing locally jammed: `out` says so). Throws ConfigError for bad options.
   bool prepare(LoadTestSummary& out);
@@ -73,12 +73,12 @@ class LoadProblem {
   const Box& box;
   const LoadTestOptions& options;
   Index n = 0;
-  std::vector<int> slot;         ///< per sphere: movable index, -1 if removed
-  std::vector<Index> movable;    ///< the spheres that are variables
-  std::vector<char> loaded;      ///< per movable sphere: carries load (backbone, not set aside)
+  std::vector<int> slot;       ///< per sphere: movable index, -1 if removed
+  std::vector<Index> movable;  ///< the spheres that are variables
+  std::vector<char> loaded;    ///< per movable sphere: carries load (backbone, not set aside)
   std::int64_t backboneCount = 0;
-  double diameter = 0.0;         ///< the mean diameter, the LP's length unit
-  LoadLp lp;                     ///< the first LP
+  double diameter = 0.0;  ///< the mean diameter, the LP's length unit
+  LoadLp lp;              ///< the first LP
   int cols = 0;
 
  private:

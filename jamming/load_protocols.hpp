@@ -75,7 +75,7 @@ struct LoadTestSummary {
   Index constraints = 0;    ///< rows of the first load LP
   Eigen::Matrix3Xd motion;  ///< SingleLp: the worst load's displacement; Sequential: the accumulated one (3 x N)
   double seconds = 0.0;
-  std::string solver;      ///< which LP solver ran, with its iteration counts (empty: no LP solved)
+  std::string solver;       ///< which LP solver ran, with its iteration counts (empty: no LP solved)
   Index localRattlers = 0;  ///< loaded spheres unloaded by the local LP (LoadTestOptions::localRattlers)
 };
 
@@ -96,11 +96,11 @@ struct SingleLoadResult : LoadTestSummary {
 };
 
 struct SequentialLoadingResult : LoadTestSummary {
-  SubpackingSearch search;         ///< rounds = 0 when subpackingRounds = 1
-  double meanDisplacement = 0.0;   ///< largest mean accumulated displacement of the loaded spheres, D_i
-  int steps = 0;                   ///< LPs solved
-  double linearLargest = 0.0;      ///< largest first-step LP motion of a loaded sphere, mean diameters
-  Index linearDisplaced = 0;       ///< loaded spheres beyond displacementLimit in that LP
+  SubpackingSearch search;        ///< rounds = 0 when subpackingRounds = 1
+  double meanDisplacement = 0.0;  ///< largest mean accumulated displacement of the loaded spheres, D_i
+  int steps = 0;                  ///< LPs solved
+  double linearLargest = 0.0;     ///< largest first-step LP motion of a loaded sphere, mean diameters
+  Index linearDisplaced = 0;      ///< loaded spheres beyond displacementLimit in that LP
 };
 
 /// One LP per load (Algorithm 13); options.protocol is not read. Throws ConfigError for bad options.
@@ -108,8 +108,8 @@ SingleLoadResult testSingleLoads(const SphereView& spheres, const Box& box, cons
                                  const LoadTestOptions& options = {});
 
 /// Sequential random loading (Algorithm 14); options.protocol is not read. Throws ConfigError for bad options.
-SequentialLoadingResult testSequentialLoading(const SphereView& spheres, const Box& box,
-                                              const ContactNetwork& network, const LoadTestOptions& options = {});
+SequentialLoadingResult testSequentialLoading(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                              const LoadTestOptions& options = {});
 
 using LoadTestResult = std::variant<SingleLoadResult, SequentialLoadingResult>;
 

@@ -5,8 +5,9 @@
 // displacement of the spheres from where they started. A jammed packing keeps its pressure and its
 // backbone stays inside its jamming polytope (displacements of the order of the jamming gap); a packing
 // that is not truly jammed leaks pressure slowly while its spheres drift away from the initial
-// configuration. Donev used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and N > ~1000, where its
-// LP library was neither accurate nor large enough, and found that the two signals always agreed.
+// configuration. Donev used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and
+// N > ~1000, where his LP library was neither accurate nor large enough, and found that the two signals
+// always agreed.
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>

@@ -114,10 +114,10 @@ void sequentialLoading(detail::LoadProblem& problem, SequentialLoadingResult& re
       for (std::size_t c = 0; c < b.size(); ++c) beta[c] = sign * b[c];
       bool settled = false;
       for (int step = 1; step <= options.maxSteps && !stopped; ++step) {
-        detail::LoadLp lp = configurationMoved ? detail::buildLoadLp(SphereView{walk.centre, walk.radius}, box,
-                                                                     problem.slot, options.gapTolerance,
-                                                                     problem.diameter)
-                                               : problem.lp;
+        detail::LoadLp lp = configurationMoved
+                                ? detail::buildLoadLp(SphereView{walk.centre, walk.radius}, box, problem.slot,
+                                                      options.gapTolerance, problem.diameter)
+                                : problem.lp;
         lp.bound = options.maxDisplacement;
         lp.columnBound = columnBound;
         problem.pin(lp);
@@ -145,8 +145,8 @@ void sequentialLoading(detail::LoadProblem& problem, SequentialLoadingResult& re
           break;
         }
         const double cap = options.gapTolerance * walk.radius.minCoeff() / largestMove;
-        const double tau = std::max(
-            detail::largestScaling(lp, walk.centre, walk.radius, box, dr, options.gapTolerance), std::min(1.0, cap));
+        const double tau = std::max(detail::largestScaling(lp, walk.centre, walk.radius, box, dr, options.gapTolerance),
+                                    std::min(1.0, cap));
         const double stepMax = applyStep(problem, tau, dr, walk, result);
         configurationMoved = true;
         if (options.progress) {
@@ -238,9 +238,10 @@ SequentialLoadingResult sequentialRounds(const SphereView& spheres, const Box& b
   if (!first.jammed) {
     first.verdict +=
         search.subpackingJammed
-            ? fmt::format("; jammed subpacking of {} spheres after {} rounds (loaded spheres beyond {:.3g} D_i "
-                          "removed per round: {})",
-                          search.subpacking, search.rounds, options.maxLimit, perRound)
+            ? fmt::format(
+                  "; jammed subpacking of {} spheres after {} rounds (loaded spheres beyond {:.3g} D_i "
+                  "removed per round: {})",
+                  search.subpacking, search.rounds, options.maxLimit, perRound)
             : fmt::format("; no jammed subpacking in {} rounds (removed per round: {})", search.rounds, perRound);
   }
   first.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -249,8 +250,8 @@ SequentialLoadingResult sequentialRounds(const SphereView& spheres, const Box& b
 
 }  // namespace
 
-SequentialLoadingResult testSequentialLoading(const SphereView& spheres, const Box& box,
-                                              const ContactNetwork& network, const LoadTestOptions& options) {
+SequentialLoadingResult testSequentialLoading(const SphereView& spheres, const Box& box, const ContactNetwork& network,
+                                              const LoadTestOptions& options) {
   detail::requireLoads(options);
   if (options.subpackingRounds > 1) return sequentialRounds(spheres, box, network, options);
   return sequentialOnce(spheres, box, network, options);

@@ -76,10 +76,10 @@ void loadRounds(detail::LoadProblem& problem, SingleLoadResult& result) {
         result.objectives.push_back(objective);
         LoadOutcome now = evaluateLoad(problem, x, displacedNow, result);
         if (options.progress) {
-          options.progress(fmt::format(
-              "round {} load {}{}: {} backbone spheres beyond {:.1e} D, largest {:.3g} D ({:.1f} s so far)", round,
-              load + 1, sign > 0 ? "+" : "-", now.displaced, options.displacementLimit, now.largest,
-              problem.elapsed()));
+          options.progress(
+              fmt::format("round {} load {}{}: {} backbone spheres beyond {:.1e} D, largest {:.3g} D ({:.1f} s so far)",
+                          round, load + 1, sign > 0 ? "+" : "-", now.displaced, options.displacementLimit, now.largest,
+                          problem.elapsed()));
         }
         if (now.largest > worst.largest) worst = std::move(now);
       }
@@ -131,16 +131,17 @@ std::string singleVerdict(const LoadTestOptions& options, Index backboneTested, 
   if (!result.jammed && options.subpackingRounds > 1) {
     std::string perRound;
     for (Index k : search.setAsidePerRound) perRound += fmt::format("{}{}", perRound.empty() ? "" : ", ", k);
-    verdict +=
-        search.subpackingJammed
-            ? fmt::format("; jammed subpacking of {} of {} backbone spheres ({:.2f}%) after {} rounds (displaced per "
-                          "round: {})",
-                          search.subpacking, backboneTested,
-                          100.0 * static_cast<double>(search.subpacking) / static_cast<double>(backboneTested),
-                          search.rounds, perRound)
-            : fmt::format("; no jammed subpacking found in {} rounds ({} of {} backbone spheres set aside; displaced "
-                          "per round: {})",
-                          search.rounds, search.loose, backboneTested, perRound);
+    verdict += search.subpackingJammed
+                   ? fmt::format(
+                         "; jammed subpacking of {} of {} backbone spheres ({:.2f}%) after {} rounds (displaced per "
+                         "round: {})",
+                         search.subpacking, backboneTested,
+                         100.0 * static_cast<double>(search.subpacking) / static_cast<double>(backboneTested),
+                         search.rounds, perRound)
+                   : fmt::format(
+                         "; no jammed subpacking found in {} rounds ({} of {} backbone spheres set aside; displaced "
+                         "per round: {})",
+                         search.rounds, search.loose, backboneTested, perRound);
   }
   return verdict;
 }

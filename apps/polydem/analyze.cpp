@@ -6,6 +6,8 @@
 // This file: the options, their validation and the run (load and validate the input, compute, report,
 // write), whose parts live in analyze_contacts.cpp, analyze_jamming.cpp and analyze_structure.cpp.
 // Verdicts only where they apply (issue 15): see analyze_contacts.cpp.
+#include "apps/polydem/analyze.hpp"
+
 #include <fmt/format.h>
 
 #include <filesystem>
@@ -13,7 +15,6 @@
 #include <memory>
 #include <optional>
 
-#include "apps/polydem/analyze.hpp"
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/validators.hpp"
@@ -32,13 +33,13 @@ namespace {
 void addContactOptions(CLI::App& cmd, AnalyzeOptions& opt) {
   cmd.add_option("input", opt.input, "particle file (.h5/.hdf5 or text)")->required();
   cmd.add_option("--contact-gap", opt.contactGap,
-                  "contact when gap <= this x (r_i + r_j), also the largest overlap (x the smaller radius) "
-                  "accepted; 0 = from the reduced pressure (see --pressure)")
+                 "contact when gap <= this x (r_i + r_j), also the largest overlap (x the smaller radius) "
+                 "accepted; 0 = from the reduced pressure (see --pressure)")
       ->check(finiteIn(0.0, 1.0))
       ->capture_default_str();
   cmd.add_option("--pressure", opt.pressure,
-                  "reduced pressure of the packing for the default contact gap (0 = the file's reduced_pressure "
-                  "attribute; without one, give --pressure or --contact-gap)")
+                 "reduced pressure of the packing for the default contact gap (0 = the file's reduced_pressure "
+                 "attribute; without one, give --pressure or --contact-gap)")
       ->check(finiteNonNegative())
       ->capture_default_str();
   cmd.add_option("--broad-phase", opt.broadPhase, "broad phase for the pair searches")->capture_default_str();
@@ -54,37 +55,37 @@ void addContactOptions(CLI::App& cmd, AnalyzeOptions& opt) {
 
 void addCertifyOptions(CLI::App& cmd, AnalyzeOptions& opt) {
   cmd.add_flag("--certify", opt.certify,
-                "linear-programming test of collective jamming (GLPK): 'jammed' or an unjamming motion");
+               "linear-programming test of collective jamming (GLPK): 'jammed' or an unjamming motion");
   cmd.add_option("--remove", opt.removeSphere,
-                  "--certify, --leak-test: take this sphere (index) out (e.g. a backbone sphere: a deliberately "
-                  "unjammed packing)")
+                 "--certify, --leak-test: take this sphere (index) out (e.g. a backbone sphere: a deliberately "
+                 "unjammed packing)")
       ->check(CLI::Range(0, std::numeric_limits<Index>::max()));
   cmd.add_option("--load-gap", opt.loadGap,
-                  "--certify: pairs with gap <= this x (r_i + r_j) are constraints of the load test")
+                 "--certify: pairs with gap <= this x (r_i + r_j) are constraints of the load test")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--load-test", opt.loadTest,
-                  "--certify: sequential = the seed's Algorithm 14 for packings with gaps (each load's motion is "
-                  "scaled to the first collision, applied and loaded again; verdict from the accumulated "
-                  "displacements); single = one LP per load, any sphere beyond --displacement-limit unjams "
-                  "(Algorithm 13, with --subpacking-rounds)")
+                 "--certify: sequential = the seed's Algorithm 14 for packings with gaps (each load's motion is "
+                 "scaled to the first collision, applied and loaded again; verdict from the accumulated "
+                 "displacements); single = one LP per load, any sphere beyond --displacement-limit unjams "
+                 "(Algorithm 13, with --subpacking-rounds)")
       ->check(CLI::IsMember({"sequential", "single"}))
       ->capture_default_str();
   cmd.add_option("--displacement-limit", opt.displacementLimit,
-                  "--certify: single: a load moving a sphere further than this (mean diameters) unjams; "
-                  "sequential: reported for the LPs' own motions")
+                 "--certify: single: a load moving a sphere further than this (mean diameters) unjams; "
+                 "sequential: reported for the LPs' own motions")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--beta", opt.beta,
-                  "--certify sequential: load again while a step moves a sphere by more than this (own diameters)")
+                 "--certify sequential: load again while a step moves a sphere by more than this (own diameters)")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--max-limit", opt.maxLimit,
-                  "--certify sequential: unjammed if a loaded sphere moves further in all (own diameters)")
+                 "--certify sequential: unjammed if a loaded sphere moves further in all (own diameters)")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--mean-limit", opt.meanLimit,
-                  "--certify sequential: unjammed if the mean displacement of the loaded spheres exceeds this")
+                 "--certify sequential: unjammed if the mean displacement of the loaded spheres exceeds this")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--max-steps", opt.maxSteps, "--certify sequential: LPs per load at most")
@@ -94,60 +95,60 @@ void addCertifyOptions(CLI::App& cmd, AnalyzeOptions& opt) {
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
   cmd.add_option("--lp-solver", opt.lpSolver,
-                  "--certify: load-test LP solver: simplex (GLPK), interior (own interior point with CHOLMOD), "
-                  "auto = simplex up to 2000 spheres")
+                 "--certify: load-test LP solver: simplex (GLPK), interior (own interior point with CHOLMOD), "
+                 "auto = simplex up to 2000 spheres")
       ->check(CLI::IsMember({"auto", "simplex", "interior"}))
       ->capture_default_str();
   cmd.add_option("--subpacking-rounds", opt.subpackingRounds,
-                  "--certify: if the packing is unjammed, set the displaced spheres aside (sequential: remove them) "
-                  "and load the rest again, up to this many rounds in all, to find a jammed subpacking (seed "
-                  "Algorithm 13)")
+                 "--certify: if the packing is unjammed, set the displaced spheres aside (sequential: remove them) "
+                 "and load the rest again, up to this many rounds in all, to find a jammed subpacking (seed "
+                 "Algorithm 13)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
   cmd.add_flag("--strict", opt.strict,
-                "--certify --load-test single: strict jamming, the periodic cell may deform (volume not growing)");
+               "--certify --load-test single: strict jamming, the periodic cell may deform (volume not growing)");
   cmd.add_flag("--no-local-rattlers", opt.noLocalRattlers,
-                "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
+               "--certify: load every backbone sphere, also those the local LP (neighbours fixed) finds loose");
   cmd.add_flag("--no-ideal", opt.skipIdeal, "--certify: skip the ideal-contact LP test");
   cmd.add_option("--motion-csv", opt.motionCsv,
-                  "--certify: write the load test's motion (the unjamming motion, or the displacements the loads "
-                  "achieved)");
+                 "--certify: write the load test's motion (the unjamming motion, or the displacements the loads "
+                 "achieved)");
 }
 
 void addLeakOptions(CLI::App& cmd, AnalyzeOptions& opt) {
   cmd.add_option("--leak-test", opt.leakCollisions,
-                  "pressure-leak test (seed ch. 9): plain event-driven dynamics for this many collisions per particle; "
-                  "a jammed packing keeps its pressure and its backbone does not drift (with --remove: without the "
-                  "sphere)")
+                 "pressure-leak test (seed ch. 9): plain event-driven dynamics for this many collisions per particle; "
+                 "a jammed packing keeps its pressure and its backbone does not drift (with --remove: without the "
+                 "sphere)")
       ->check(finitePositive());
   cmd.add_option("--leak-blocks", opt.leakBlocks, "--leak-test: blocks (one pressure each)")
       ->check(CLI::Range(4, 100000))
       ->capture_default_str();
   cmd.add_option("--leak-tolerance", opt.leakTolerance,
-                  "--leak-test: a relative pressure drop (last quarter against first) beyond this is a leak")
+                 "--leak-test: a relative pressure drop (last quarter against first) beyond this is a leak")
       ->check(finitePositive())
       ->capture_default_str();
   cmd.add_option("--leak-drift", opt.leakDrift,
-                  "--leak-test: a drift: the last quarter's mean backbone displacement above this factor (> 1) x "
-                  "the first half's largest")
+                 "--leak-test: a drift: the last quarter's mean backbone displacement above this factor (> 1) x "
+                 "the first half's largest")
       ->check(finiteIn(1.0, 1e300))
       ->capture_default_str();
 }
 
 CLI::Option* addStructureOptions(CLI::App& cmd, AnalyzeOptions& opt) {
   cmd.add_flag("--structure-only", opt.structureOnly,
-                "skip the contact network and jamming statistics (gases, liquids, crystals)");
+               "skip the contact network and jamming statistics (gases, liquids, crystals)");
   cmd.add_flag("--order", opt.order,
-                "bond-orientational order over weighted Delaunay neighbours: q6, Q6, crystalline fraction p_c "
-                "(d6 > 0.65, >= 6 connections)");
+               "bond-orientational order over weighted Delaunay neighbours: q6, Q6, crystalline fraction p_c "
+               "(d6 > 0.65, >= 6 connections)");
   cmd.add_option("--channels-csv", opt.channelsCsv,
-                  "write the channel-size histogram f(R_j / r_i), bin 0.01 (x_low,x_mid,f,count)");
+                 "write the channel-size histogram f(R_j / r_i), bin 0.01 (x_low,x_mid,f,count)");
   cmd.add_option("--sk-csv", opt.skCsv,
-                  "write shell-averaged S(k) and spectral density chi(k) (K,S,chi,vectors), "
-                  "K = k D, D = 2 <r>; periodic boxes only");
+                 "write shell-averaged S(k) and spectral density chi(k) (K,S,chi,vectors), "
+                 "K = k D, D = 2 <r>; periodic boxes only");
   cmd.add_option("--sk-kmax", opt.skMax, "--sk-csv: largest K = k D")->check(finitePositive())->capture_default_str();
   cmd.add_option("--sk-max-vectors", opt.skMaxVectors,
-                  "--sk-csv: above this many wave vectors use every s-th per axis (coarser shells; 0 = all)")
+                 "--sk-csv: above this many wave vectors use every s-th per axis (coarser shells; 0 = all)")
       ->check(finiteIn(0.0, 1e15))
       ->capture_default_str();
   return cmd
@@ -183,8 +184,8 @@ void validateOptions(AnalyzeOptions& opt, const CLI::App& cmd, const CLI::Option
     }
   }
   if (!(opt.correlationMax > 1.0)) {
-    throw ConfigError(fmt::format("--gr-max: {} must be > 1 (x = r_ij / (r_i + r_j) is 1 at contact)",
-                                  opt.correlationMax));
+    throw ConfigError(
+        fmt::format("--gr-max: {} must be > 1 (x = r_ij / (r_i + r_j) is 1 at contact)", opt.correlationMax));
   }
   if (!(opt.leakDrift > 1.0)) {
     throw ConfigError(fmt::format("--leak-drift: {} must be > 1 (a ratio of displacements)", opt.leakDrift));
@@ -193,8 +194,9 @@ void validateOptions(AnalyzeOptions& opt, const CLI::App& cmd, const CLI::Option
     throw ConfigError("--strict needs --load-test single (the sequential test keeps the cell fixed)");
   }
   if (opt.certify && !opt.skipIdeal && !jamming::jammingTestAvailable()) {
-    throw ConfigError("--certify: the ideal-contact LP test needs GLPK (libglpk-dev), which this build did not "
-                      "find; add --no-ideal to run the load test alone");
+    throw ConfigError(
+        "--certify: the ideal-contact LP test needs GLPK (libglpk-dev), which this build did not "
+        "find; add --no-ideal to run the load test alone");
   }
   try {
     broadphase::makeBroadPhase(opt.broadPhase);
@@ -216,18 +218,18 @@ void validateOptions(AnalyzeOptions& opt, const CLI::App& cmd, const CLI::Option
 void checkOutputs(const AnalyzeOptions& opt) {
   const std::vector<std::filesystem::path> inputs{opt.input};
   std::vector<std::pair<const char*, std::string>> seen;
-  for (const auto& [name, path] : std::initializer_list<std::pair<const char*, const std::string*>>{
-           {"--z-csv", &opt.coordinationCsv},
-           {"--gr-csv", &opt.correlationCsv},
-           {"--motion-csv", &opt.motionCsv},
-           {"--channels-csv", &opt.channelsCsv},
-           {"--sk-csv", &opt.skCsv}}) {
+  for (const auto& [name, path] :
+       std::initializer_list<std::pair<const char*, const std::string*>>{{"--z-csv", &opt.coordinationCsv},
+                                                                         {"--gr-csv", &opt.correlationCsv},
+                                                                         {"--motion-csv", &opt.motionCsv},
+                                                                         {"--channels-csv", &opt.channelsCsv},
+                                                                         {"--sk-csv", &opt.skCsv}}) {
     if (path->empty()) continue;
     io::checkOutputPath(*path, name, inputs);
     for (const auto& [other, otherPath] : seen) {
       if (io::samePath(*path, otherPath)) {
-        throw ConfigError(fmt::format("{} '{}': is also the file of {}; give each output its own name", name,
-                                      *path, other));
+        throw ConfigError(
+            fmt::format("{} '{}': is also the file of {}; give each output its own name", name, *path, other));
       }
     }
     seen.emplace_back(name, *path);
@@ -239,26 +241,27 @@ io::ParticleData loadInput(const AnalyzeOptions& opt) {
   const io::ParticleData data = io::readParticles(opt.input);
   const Index n = data.count();
   if (opt.removeSphere >= n) {
-    throw ConfigError(n == 0 ? fmt::format("--remove {}: the packing has no spheres", opt.removeSphere)
-                             : fmt::format("--remove {}: the packing has {} spheres (indices 0..{})",
-                                           opt.removeSphere, n, n - 1));
+    throw ConfigError(
+        n == 0 ? fmt::format("--remove {}: the packing has no spheres", opt.removeSphere)
+               : fmt::format("--remove {}: the packing has {} spheres (indices 0..{})", opt.removeSphere, n, n - 1));
   }
   if (opt.velocityRattlers && n > 0 && !data.velocity) {
-    throw ConfigError(fmt::format(
-        "--velocity-rattlers: {} has no velocities; write it with `polydem jam --velocities`", opt.input));
+    throw ConfigError(
+        fmt::format("--velocity-rattlers: {} has no velocities; write it with `polydem jam --velocities`", opt.input));
   }
   if (!opt.skCsv.empty() && n == 0) {
-    throw InputError(fmt::format("--sk-csv: {} has no spheres, so S(k) is undefined (0/0); nothing computed",
-                                 opt.input));
+    throw InputError(
+        fmt::format("--sk-csv: {} has no spheres, so S(k) is undefined (0/0); nothing computed", opt.input));
   }
   if (!opt.skCsv.empty() && !data.box.fullyPeriodic()) {
-    throw InputError(fmt::format("--sk-csv: S(k) needs a box periodic on every axis; {} has {}", opt.input,
-                                 data.box.describe()));
+    throw InputError(
+        fmt::format("--sk-csv: S(k) needs a box periodic on every axis; {} has {}", opt.input, data.box.describe()));
   }
   if (!opt.channelsCsv.empty() && n == 0) {
-    throw InputError(fmt::format("--channels-csv: {} has no spheres, so there are no channels (f is 0/0); nothing "
-                                 "computed",
-                                 opt.input));
+    throw InputError(
+        fmt::format("--channels-csv: {} has no spheres, so there are no channels (f is 0/0); nothing "
+                    "computed",
+                    opt.input));
   }
   return data;
 }
@@ -267,15 +270,17 @@ io::ParticleData loadInput(const AnalyzeOptions& opt) {
 void checkContactOutputs(const AnalyzeOptions& opt, const io::ParticleData& data) {
   const Index n = data.count();
   if (!opt.correlationCsv.empty() && n < 2) {
-    throw InputError(fmt::format("--gr-csv: {} has {} sphere{}, so g(x) (pairs over the ideal-gas count) is "
-                                 "undefined; nothing computed",
-                                 opt.input, n, n == 1 ? "" : "s"));
+    throw InputError(
+        fmt::format("--gr-csv: {} has {} sphere{}, so g(x) (pairs over the ideal-gas count) is "
+                    "undefined; nothing computed",
+                    opt.input, n, n == 1 ? "" : "s"));
   }
   if (!opt.correlationCsv.empty()) {
     if (!data.box.fullyPeriodic()) {
-      throw InputError(fmt::format("--gr-csv: g(x) is normalised by the ideal-gas pair count of a periodic box; {} "
-                                   "has {}",
-                                   opt.input, data.box.describe()));
+      throw InputError(
+          fmt::format("--gr-csv: g(x) is normalised by the ideal-gas pair count of a periodic box; {} "
+                      "has {}",
+                      opt.input, data.box.describe()));
     }
     // Pairs are counted by the minimum image, which misses images beyond half a box length.
     const double reach = opt.correlationMax * 2.0 * data.radius.maxCoeff();
@@ -288,9 +293,10 @@ void checkContactOutputs(const AnalyzeOptions& opt, const io::ParticleData& data
     }
   }
   if (!opt.coordinationCsv.empty() && n == 0) {
-    throw InputError(fmt::format("--z-csv: {} has no spheres, so Z(tau) (contacts per sphere) is undefined; "
-                                 "nothing computed",
-                                 opt.input));
+    throw InputError(
+        fmt::format("--z-csv: {} has no spheres, so Z(tau) (contacts per sphere) is undefined; "
+                    "nothing computed",
+                    opt.input));
   }
 }
 

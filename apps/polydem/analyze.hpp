@@ -50,8 +50,8 @@ struct AnalyzeOptions {
   double skMaxVectors = 2e6;
   std::vector<std::string> velocityThreshold;  // empty (or "") with the flag alone: 1e-4
   // Set from the parsed options by the runner:
-  bool velocityRattlers = false;        ///< --velocity-rattlers given
-  double velocityRattlerLimit = 1e-4;   ///< its threshold
+  bool velocityRattlers = false;       ///< --velocity-rattlers given
+  double velocityRattlerLimit = 1e-4;  ///< its threshold
 };
 
 /// Write "header\na,b\n..." with 10 significant digits.

@@ -29,9 +29,10 @@ std::optional<double> packingPressure(const AnalyzeOptions& opt, const io::Parti
   if (opt.pressure > 0.0) return opt.pressure;
   const std::optional<double> p = io::numericAttribute(data, "reduced_pressure", opt.input);
   if (p && !(*p > 0.0)) {
-    throw InputError(fmt::format("{}: attribute reduced_pressure: {} is not a positive reduced pressure; give "
-                                 "--pressure P (or --contact-gap TAU)",
-                                 opt.input, *p));
+    throw InputError(
+        fmt::format("{}: attribute reduced_pressure: {} is not a positive reduced pressure; give "
+                    "--pressure P (or --contact-gap TAU)",
+                    opt.input, *p));
   }
   return p;
 }
@@ -75,8 +76,7 @@ ContactAnalysis computeContacts(const AnalyzeOptions& opt, const io::ParticleDat
   contact.relativeGap = opt.contactGap > 0.0 ? opt.contactGap : jamming::defaultContactGap(*pressure);
   contact.broadPhase = opt.broadPhase;
   out.validity = jamming::requireHardSpherePacking(
-      spheres, data.box, {.overlapTolerance = contact.relativeGap, .broadPhase = opt.broadPhase}, opt.input,
-      data.id);
+      spheres, data.box, {.overlapTolerance = contact.relativeGap, .broadPhase = opt.broadPhase}, opt.input, data.id);
   // Contacts are found by the minimum image; a periodic length below 2 (2 r_max + gap) would let a sphere
   // touch two images of another, which the search cannot represent.
   out.net = [&] {
@@ -99,9 +99,8 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   const double phi = solidVolume(data) / data.box.volume();
 
   printHeader(opt, data);
-  fmt::print("density bound           {:.8f} ({}); no overlap beyond the contact tolerance\n",
-             validity.densityBound,
-             validity.equalSpheres          ? "FCC, equal spheres"
+  fmt::print("density bound           {:.8f} ({}); no overlap beyond the contact tolerance\n", validity.densityBound,
+             validity.equalSpheres         ? "FCC, equal spheres"
              : validity.densityBound < 1.0 ? "pi/sqrt(18) <r^3>/r_min^3"
                                            : "1, disjoint spheres");
   if (pressure) {
@@ -112,8 +111,9 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
                           : std::string("phi_J estimate undefined: needs p > 3");
     fmt::print("reduced pressure        {:.4g} ({})  ({})\n", *pressure, source, estimate);
   } else {
-    fmt::print("reduced pressure        unknown (no reduced_pressure attribute, no --pressure): phi_J estimate "
-               "undefined\n");
+    fmt::print(
+        "reduced pressure        unknown (no reduced_pressure attribute, no --pressure): phi_J estimate "
+        "undefined\n");
   }
   const std::optional<jamming::PairGap> gap = jamming::smallestGap(spheres, data.box, opt.broadPhase);
   auto id = [&](Index i) { return data.id.empty() ? i : data.id[static_cast<std::size_t>(i)]; };
@@ -127,9 +127,9 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
              n ? fmt::format("{:.4f}", net.meanCoordination()) : std::string("undefined (no spheres)"));
   fmt::print("rattlers (< {} contacts)  {} ({})\n", contact.minContacts, n - net.backbone,
              n ? fmt::format("{:.2f}%", 100.0 * net.rattlerFraction()) : std::string("undefined: no spheres"));
-  fmt::print("backbone                {} spheres, {} contacts, z = {}\n", net.backbone, net.backboneContacts,
-             net.backbone ? fmt::format("{:.4f}", net.backboneCoordination())
-                          : std::string("undefined (empty backbone)"));
+  fmt::print(
+      "backbone                {} spheres, {} contacts, z = {}\n", net.backbone, net.backboneContacts,
+      net.backbone ? fmt::format("{:.4f}", net.backboneCoordination()) : std::string("undefined (empty backbone)"));
   if (net.backbone == 0) {
     fmt::print("isostaticity            undefined (empty backbone: every sphere is a rattler)\n");
   } else {
@@ -165,9 +165,9 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
     std::string line;
     for (std::size_t k = 0; k < taus.size(); ++k) line += fmt::format(" {:.0e}:{:.3f}", taus[k], z[k]);
     if (taus.size() < 15) {
-      line += taus.empty() ? std::string(" undefined (the box is too small for gaps of 1e-15)")
-                           : fmt::format("; undefined above tau = {:.0e} (gaps beyond half the box length)",
-                                         taus.back());
+      line += taus.empty()
+                  ? std::string(" undefined (the box is too small for gaps of 1e-15)")
+                  : fmt::format("; undefined above tau = {:.0e} (gaps beyond half the box length)", taus.back());
     }
     fmt::print("Z(tau), all spheres    {}\n", line);
     if (!opt.coordinationCsv.empty()) {

@@ -65,9 +65,10 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
       const structure::ChannelHistogram h = structure::channelSizes(spheres, nb);
       const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (h.channels == 0) {
-        fmt::print("channels R_j/r_i        {} acute of {} triangles, none with a gap circle: mean and sd undefined "
-                   "({:.2f} s)\n",
-                   h.acute, h.triangles, sec);
+        fmt::print(
+            "channels R_j/r_i        {} acute of {} triangles, none with a gap circle: mean and sd undefined "
+            "({:.2f} s)\n",
+            h.acute, h.triangles, sec);
       } else {
         fmt::print(
             "channels R_j/r_i        {} acute of {} triangles, {} with a gap circle; mean {:.4f}, sd {:.4f} "
