@@ -11,6 +11,38 @@
 
 namespace polydem::jamming {
 
+namespace {
+
+// The block's mean and largest displacement of the watched spheres from `origin`, in own diameters.
+void measureDisplacements(const Box& box, const Eigen::Matrix3Xd& now, const Eigen::Matrix3Xd& origin,
+                          const Eigen::VectorXd& radius, const std::vector<char>& rattler, LeakBlock& block) {
+  // Displacements relative to the backbone's mean displacement: the backbone as a whole may translate
+  // (momentum goes back and forth between it and the rattlers), which is no unjamming motion.
+  const Index n = static_cast<Index>(radius.size());
+  Eigen::Matrix3Xd moved(3, n);
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Index watched = 0;
+  for (Index i = 0; i < n; ++i) {
+    moved.col(i) = box.minimumImage(now.col(i) - origin.col(i));
+    if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
+    translation += moved.col(i);
+    ++watched;
+  }
+  if (watched > 0) translation /= static_cast<double>(watched);
+  for (Index i = 0; i < n; ++i) {
+    if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
+    const double d = (moved.col(i) - translation).norm() / (2.0 * radius[i]);
+    block.meanDisplacement += d;
+    if (d > block.maxDisplacement) {
+      block.maxDisplacement = d;
+      block.maxSphere = i;
+    }
+  }
+  if (watched > 0) block.meanDisplacement /= static_cast<double>(watched);
+}
+
+}  // namespace
+
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options) {
   if (!(options.collisionsPerParticle > 0.0) || options.blocks < 4 || !(options.pressureTolerance > 0.0) ||
@@ -58,29 +90,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
     LeakBlock block;
     block.collisionsPerParticle = done;
     block.pressure = system.pressureWindow().reducedPressure();
-    // Displacements relative to the backbone's mean displacement: the backbone as a whole may translate
-    // (momentum goes back and forth between it and the rattlers), which is no unjamming motion.
-    const Eigen::Matrix3Xd now = system.positions();
-    Eigen::Matrix3Xd moved(3, n);
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-    Index watched = 0;
-    for (Index i = 0; i < n; ++i) {
-      moved.col(i) = box.minimumImage(now.col(i) - origin.col(i));
-      if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
-      translation += moved.col(i);
-      ++watched;
-    }
-    if (watched > 0) translation /= static_cast<double>(watched);
-    for (Index i = 0; i < n; ++i) {
-      if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
-      const double d = (moved.col(i) - translation).norm() / (2.0 * radius[i]);
-      block.meanDisplacement += d;
-      if (d > block.maxDisplacement) {
-        block.maxDisplacement = d;
-        block.maxSphere = i;
-      }
-    }
-    if (watched > 0) block.meanDisplacement /= static_cast<double>(watched);
+    measureDisplacements(box, system.positions(), origin, radius, rattler, block);
     out.blocks.push_back(block);
     if (options.progress) {
       options.progress(fmt::format(
