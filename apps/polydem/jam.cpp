@@ -26,7 +26,7 @@
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
-#include "edmd/contact_network.hpp"
+#include "jamming/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
 
 namespace polydem::app {
@@ -483,8 +483,8 @@ struct JamSummary {
   double pressure = 0.0, phi = 0.0, phiJ = 0.0;
   Eigen::Matrix3Xd x;
   Eigen::VectorXd r;
-  edmd::ContactOptions contactOptions;
-  edmd::ContactNetwork net;
+  jamming::ContactOptions contactOptions;
+  jamming::ContactNetwork net;
 };
 
 /// --run-collisions: the fixed-density run after the compression; its pressure replaces the last block's.
@@ -511,9 +511,9 @@ void analysePacking(const JamRun& run, JamSummary& summary) {
   summary.x = system.positions();
   summary.r = system.radii();
   summary.contactOptions.relativeGap =
-      run.opt.contactGap > 0.0 ? run.opt.contactGap : edmd::defaultContactGap(summary.pressure);
+      run.opt.contactGap > 0.0 ? run.opt.contactGap : jamming::defaultContactGap(summary.pressure);
   summary.contactOptions.broadPhase = run.opt.broadPhase;
-  summary.net = edmd::analyseContacts(SphereView{summary.x, summary.r}, system.box(), summary.contactOptions);
+  summary.net = jamming::analyseContacts(SphereView{summary.x, summary.r}, system.box(), summary.contactOptions);
   summary.phi = system.packingFraction();
   summary.phiJ = edmd::jammingDensityEstimate(summary.phi, summary.pressure);
 }
@@ -522,7 +522,7 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
   const edmd::HardSphereSystem& system = *run.system;
   const Index n = system.count();
   const edmd::EventCounts& c = outcome.result.counts;
-  const edmd::ContactNetwork& net = s.net;
+  const jamming::ContactNetwork& net = s.net;
   const double seconds = outcome.seconds;
   const std::string phiJText =
       std::isfinite(s.phiJ) ? fmt::format("{:.8f}", s.phiJ) : std::string("undefined (p <= 3)");

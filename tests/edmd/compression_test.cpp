@@ -10,13 +10,15 @@
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/size_distribution.hpp"
-#include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
-#include "edmd/jamming_test.hpp"
+#include "jamming/contact_network.hpp"
+#include "jamming/load_protocols.hpp"
 #include "tests/support/lattices.hpp"
 
 namespace polydem::edmd {
 namespace {
+
+using namespace jamming;  // the packings made here are certified by the jamming tests
 
 Eigen::Matrix3Xd randomVelocities(const Eigen::VectorXd& radius, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -88,45 +90,45 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   // Certification: no random load moves a backbone sphere; taking a backbone sphere out unjams its
   // neighbourhood (an unjamming motion appears).
   const SphereView spheres{r.x, r.r};
-  const LoadTestResult jammed = testJammingUnderLoad(spheres, r.box, r.net);
+  const SingleLoadResult jammed = testSingleLoads(spheres, r.box, r.net);
   EXPECT_TRUE(jammed.jammed) << jammed.verdict;
   LoadTestOptions holed;
   Index victim = 0;
   while (r.net.rattler[static_cast<std::size_t>(victim)]) ++victim;
   holed.removed = {victim};
-  const LoadTestResult unjammed = testJammingUnderLoad(spheres, r.box, r.net, holed);
+  const SingleLoadResult unjammed = testSingleLoads(spheres, r.box, r.net, holed);
   EXPECT_FALSE(unjammed.jammed) << unjammed.verdict;
   EXPECT_GT(unjammed.displaced, 0);
   // The interior-point solver (the one large packings use) reaches the same optimum: a random load has a
   // unique optimal vertex, so the largest backbone displacement agrees with the simplex's.
   LoadTestOptions interior;
   interior.solver = LpSolver::InteriorPoint;
-  const LoadTestResult jammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
+  const SingleLoadResult jammedIp = testSingleLoads(spheres, r.box, r.net, interior);
   EXPECT_TRUE(jammedIp.jammed) << jammedIp.verdict;
   EXPECT_NEAR(jammedIp.largestDisplacement, jammed.largestDisplacement, 1e-6 + 1e-4 * jammed.largestDisplacement);
   interior.removed = holed.removed;
-  const LoadTestResult unjammedIp = testJammingUnderLoad(spheres, r.box, r.net, interior);
+  const SingleLoadResult unjammedIp = testSingleLoads(spheres, r.box, r.net, interior);
   EXPECT_FALSE(unjammedIp.jammed) << unjammedIp.verdict;
   EXPECT_GT(unjammedIp.displaced, 0);
   // Subpacking rounds (Donev 2006, thesis, Algorithm 13): the intact packing needs one round; the holed one sets its
   // displaced spheres aside round by round, and a jammed remainder plus the set-aside spheres is the backbone.
   LoadTestOptions rounds;
   rounds.subpackingRounds = 6;
-  const LoadTestResult intact = testJammingUnderLoad(spheres, r.box, r.net, rounds);
-  EXPECT_TRUE(intact.jammed && intact.subpackingJammed) << intact.verdict;
-  EXPECT_EQ(intact.rounds, 1);
-  EXPECT_EQ(intact.loose, 0);
+  const SingleLoadResult intact = testSingleLoads(spheres, r.box, r.net, rounds);
+  EXPECT_TRUE(intact.jammed && intact.search.subpackingJammed) << intact.verdict;
+  EXPECT_EQ(intact.search.rounds, 1);
+  EXPECT_EQ(intact.search.loose, 0);
   rounds.removed = holed.removed;
-  const LoadTestResult holedRounds = testJammingUnderLoad(spheres, r.box, r.net, rounds);
+  const SingleLoadResult holedRounds = testSingleLoads(spheres, r.box, r.net, rounds);
   EXPECT_FALSE(holedRounds.jammed) << holedRounds.verdict;
   EXPECT_EQ(holedRounds.displaced, unjammed.displaced);  // round 1 is the plain test
-  EXPECT_GE(holedRounds.loose, unjammed.displaced);
+  EXPECT_GE(holedRounds.search.loose, unjammed.displaced);
   // Either a jammed remainder, which with the set-aside spheres makes up the tested backbone, or every
   // backbone sphere was displaced at some round (in 200 spheres a hole unjams nearly everything).
   // (Spheres the local LP finds loose once the hole is made carry no load from the start.)
-  const Index setAside = holedRounds.loose + holedRounds.localRattlers;
-  if (holedRounds.subpackingJammed) {
-    EXPECT_EQ(holedRounds.subpacking + setAside, r.net.backbone - 1);
+  const Index setAside = holedRounds.search.loose + holedRounds.localRattlers;
+  if (holedRounds.search.subpackingJammed) {
+    EXPECT_EQ(holedRounds.search.subpacking + setAside, r.net.backbone - 1);
   } else {
     EXPECT_GE(setAside, r.net.backbone - 1 - 1) << holedRounds.verdict;
   }
@@ -135,8 +137,8 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   {
     LoadTestOptions fixedCell, deforming;
     deforming.strict = true;
-    const LoadTestResult a = testJammingUnderLoad(spheres, r.box, r.net, fixedCell);
-    const LoadTestResult b = testJammingUnderLoad(spheres, r.box, r.net, deforming);
+    const SingleLoadResult a = testSingleLoads(spheres, r.box, r.net, fixedCell);
+    const SingleLoadResult b = testSingleLoads(spheres, r.box, r.net, deforming);
     ASSERT_EQ(a.objectives.size(), b.objectives.size());
     for (std::size_t k = 0; k < a.objectives.size(); ++k) {
       EXPECT_GE(b.objectives[k], a.objectives[k] - 1e-9 * (1.0 + std::abs(a.objectives[k]))) << k;
@@ -147,8 +149,8 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   // beyond the limits, and the motion it reports keeps every pair disjoint (the scaling stops at the first
   // true collision; IPM and simplex solutions are feasible to about 1e-9).
   LoadTestOptions sequential;
-  sequential.sequential = true;
-  const LoadTestResult seqIntact = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+  sequential.protocol = LoadProtocol::Sequential;
+  const SequentialLoadingResult seqIntact = testSequentialLoading(spheres, r.box, r.net, sequential);
   EXPECT_TRUE(seqIntact.jammed) << seqIntact.verdict;
   EXPECT_EQ(seqIntact.steps, 4);  // two loads and their opposites, each settled after one LP
   EXPECT_LT(seqIntact.largestDisplacement, sequential.beta);
@@ -156,7 +158,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   sequential.removed = holed.removed;
   for (LpSolver solver : {LpSolver::Simplex, LpSolver::InteriorPoint}) {
     sequential.solver = solver;
-    const LoadTestResult seqHoled = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+    const SequentialLoadingResult seqHoled = testSequentialLoading(spheres, r.box, r.net, sequential);
     EXPECT_FALSE(seqHoled.jammed) << seqHoled.verdict;
     EXPECT_TRUE(seqHoled.largestDisplacement > sequential.maxLimit ||
                 seqHoled.meanDisplacement > sequential.meanLimit)
@@ -177,17 +179,17 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
   // counts add up to the tested backbone, or the search ends with a round that names nobody.
   sequential.solver = LpSolver::Automatic;
   sequential.subpackingRounds = 4;
-  const LoadTestResult seqRounds = testJammingUnderLoad(spheres, r.box, r.net, sequential);
+  const SequentialLoadingResult seqRounds = testSequentialLoading(spheres, r.box, r.net, sequential);
   EXPECT_FALSE(seqRounds.jammed) << seqRounds.verdict;
-  ASSERT_FALSE(seqRounds.setAsidePerRound.empty());
-  if (seqRounds.subpackingJammed) {
-    EXPECT_GT(seqRounds.subpacking, 0);
-    EXPECT_LE(seqRounds.subpacking + seqRounds.loose, r.net.backbone - 1) << seqRounds.verdict;
+  ASSERT_FALSE(seqRounds.search.setAsidePerRound.empty());
+  if (seqRounds.search.subpackingJammed) {
+    EXPECT_GT(seqRounds.search.subpacking, 0);
+    EXPECT_LE(seqRounds.search.subpacking + seqRounds.search.loose, r.net.backbone - 1) << seqRounds.verdict;
     EXPECT_NE(seqRounds.verdict.find("jammed subpacking of"), std::string::npos) << seqRounds.verdict;
   } else {
-    EXPECT_TRUE(seqRounds.setAsidePerRound.back() == 0 || seqRounds.rounds == 4) << seqRounds.verdict;
+    EXPECT_TRUE(seqRounds.search.setAsidePerRound.back() == 0 || seqRounds.search.rounds == 4) << seqRounds.verdict;
   }
-  EXPECT_EQ(seqRounds.setAsidePerRound.size(), static_cast<std::size_t>(seqRounds.rounds));
+  EXPECT_EQ(seqRounds.search.setAsidePerRound.size(), static_cast<std::size_t>(seqRounds.search.rounds));
 }
 
 TEST(Compression, SmallBidispersePackingJams) {
@@ -453,7 +455,7 @@ TEST(JammingTest, LatticesOfTheSeed) {
     const SphereView spheres{x, r};
     const ContactNetwork net = analyseContacts(spheres, box, ContactOptions{.relativeGap = 1e-9});
     EXPECT_EQ(testCollectiveJamming(spheres, box, net).jammed, fcc);
-    EXPECT_EQ(testJammingUnderLoad(spheres, box, net).jammed, fcc);
+    EXPECT_EQ(testSingleLoads(spheres, box, net).jammed, fcc);
     // The same verdicts from the LP-free augmented-system certificate (forced with simplexLimit = 0):
     // FCC has full rank and a uniform positive self-stress; simple cubic has floppy modes (sliding rows).
     const JammingTestResult certificate = testCollectiveJamming(spheres, box, net, 1e-9, 1, 0);
@@ -462,12 +464,12 @@ TEST(JammingTest, LatticesOfTheSeed) {
         << certificate.verdict;
     LoadTestOptions interior;
     interior.solver = LpSolver::InteriorPoint;
-    EXPECT_EQ(testJammingUnderLoad(spheres, box, net, interior).jammed, fcc);
+    EXPECT_EQ(testSingleLoads(spheres, box, net, interior).jammed, fcc);
     // Sequential loading: FCC does not move at all; the sliding rows of simple cubic accumulate motion
     // step by step (each step capped where uncounted pairs could meet) until it exceeds the limit.
     LoadTestOptions sequential;
-    sequential.sequential = true;
-    const LoadTestResult seq = testJammingUnderLoad(spheres, box, net, sequential);
+    sequential.protocol = LoadProtocol::Sequential;
+    const SequentialLoadingResult seq = testSequentialLoading(spheres, box, net, sequential);
     EXPECT_EQ(seq.jammed, fcc) << seq.verdict;
     // The local LP (neighbours fixed): every lattice sphere is caged; next to a vacancy in simple cubic
     // exactly the six neighbours can move alone (into the hole); in FCC none can: a neighbour moving
@@ -476,7 +478,7 @@ TEST(JammingTest, LatticesOfTheSeed) {
     // Strict jamming (deforming cell, seed Table 4.1): FCC is strictly jammed, simple cubic is not.
     LoadTestOptions strict;
     strict.strict = true;
-    const LoadTestResult strictResult = testJammingUnderLoad(spheres, box, net, strict);
+    const SingleLoadResult strictResult = testSingleLoads(spheres, box, net, strict);
     EXPECT_EQ(strictResult.jammed, fcc) << strictResult.verdict;
     if (fcc) {
       EXPECT_LT(strictResult.strainDisplacement, 1e-9) << strictResult.verdict;
@@ -486,11 +488,11 @@ TEST(JammingTest, LatticesOfTheSeed) {
                                            &LoadTestOptions::meanLimit, &LoadTestOptions::gapTolerance}) {
       LoadTestOptions bad = sequential;
       bad.*field = -1.0;
-      EXPECT_THROW(testJammingUnderLoad(spheres, box, net, bad), ConfigError);
+      EXPECT_THROW(testSequentialLoading(spheres, box, net, bad), ConfigError);
     }
     LoadTestOptions vacancy = sequential;
     vacancy.removed = {0};
-    EXPECT_EQ(testJammingUnderLoad(spheres, box, net, vacancy).localRattlers, fcc ? 0 : 6);
+    EXPECT_EQ(testSequentialLoading(spheres, box, net, vacancy).localRattlers, fcc ? 0 : 6);
     if (fcc) {
       EXPECT_LT(seq.largestDisplacement, 1e-9);
     } else {
@@ -499,7 +501,7 @@ TEST(JammingTest, LatticesOfTheSeed) {
       EXPECT_GT(seq.meanDisplacement, sequential.meanLimit);
       EXPECT_EQ(seq.steps, 1);
       sequential.meanLimit = 1.0;
-      const LoadTestResult longer = testJammingUnderLoad(spheres, box, net, sequential);
+      const SequentialLoadingResult longer = testSequentialLoading(spheres, box, net, sequential);
       EXPECT_FALSE(longer.jammed) << longer.verdict;
       EXPECT_GT(longer.largestDisplacement, sequential.maxLimit);
       EXPECT_GT(longer.steps, 2);

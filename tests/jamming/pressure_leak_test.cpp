@@ -1,7 +1,7 @@
-// The pressure-leak test (edmd/leak_test.hpp; seed 001 ch. 9.3.1): FCC just below close packing keeps its
-// pressure and its spheres stay in their cages; simple cubic at the same gap is not jammed (its rows
-// slide, seed Table 4.1) and its spheres drift away from the lattice.
-#include "edmd/leak_test.hpp"
+// The pressure-leak test (jamming/pressure_leak.hpp; Donev 2006 thesis, §9.3.1): FCC just below close packing keeps
+// its pressure and its spheres stay in their cages; simple cubic at the same gap is not jammed (its rows
+// slide, Donev 2006, Table 4.1) and its spheres drift away from the lattice.
+#include "jamming/pressure_leak.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,11 +11,11 @@
 #include "core/errors.hpp"
 #include "tests/support/lattices.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 namespace {
 
 Box lattice(bool fcc, int m, double gap, Eigen::Matrix3Xd& x, Eigen::VectorXd& r) {
-  return testing::latticePacking(fcc, m, gap, x, r);
+  return edmd::testing::latticePacking(fcc, m, gap, x, r);
 }
 
 TEST(PressureLeak, FccKeepsItsPressureSimpleCubicLeaks) {
@@ -113,4 +113,4 @@ TEST(PressureLeak, NoSpheresOrOneSphereIsNotTested) {
 }
 
 }  // namespace
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

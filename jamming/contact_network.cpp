@@ -1,4 +1,4 @@
-#include "edmd/contact_network.hpp"
+#include "jamming/contact_network.hpp"
 
 #include <fmt/format.h>
 
@@ -10,21 +10,7 @@
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 
-namespace polydem::edmd {
-
-std::string_view verdictName(JammingVerdict verdict) {
-  switch (verdict) {
-    case JammingVerdict::Jammed:
-      return "jammed";
-    case JammingVerdict::Unjammed:
-      return "unjammed";
-    case JammingVerdict::Undecided:
-      return "undecided";
-    case JammingVerdict::NotTested:
-      break;
-  }
-  return "not tested";
-}
+namespace polydem::jamming {
 
 namespace {
 
@@ -371,4 +357,4 @@ PairCorrelation pairCorrelation(const SphereView& spheres, const Box& box, doubl
   return out;
 }
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -5,8 +5,8 @@
 // Why not GLPK or CLP: on the randomised load LP of a 10,000-sphere packing (30,000 displacements,
 // 40,000 constraints) GLPK's simplex, CLP's dual simplex and CLP's barrier each ran > 15 minutes
 // without an answer, and GLPK's interior point stopped on numerical instability already at N = 1000
-// (measured 2026-11-22, docs/edmd.md). The seed met the same wall (shared/seeds/001_3d36564c50aaa2ef.txt
-// :11163-11166, :5803-5806). The force form of that LP has only 3N equality rows, and its normal
+// (measured 2026-11-22, docs/edmd.md). Donev met the same wall (A. Donev, PhD thesis, Princeton (2006),
+// §9.3.1 and §4.6.3). The force form of that LP has only 3N equality rows, and its normal
 // matrix E D E^T has the sparsity of the contact network (3 x 3 blocks, like a stiffness matrix), which
 // a supernodal Cholesky (CHOLMOD with BLAS) factors in ~1.5 s for N = 10,000; with ~30-50 iterations a
 // load LP takes about a minute.
@@ -18,7 +18,7 @@
 #include <Eigen/SparseCore>
 #include <string>
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 struct InteriorPointOptions {
   double tolerance = 1e-9;         ///< |E^T y + s - c| / (1 + |c|) and |c.z - r.y| / (1 + |c.z|)
@@ -68,4 +68,4 @@ class SpdSolver {
 InteriorPointResult solveStandardFormLp(const Eigen::SparseMatrix<double>& e, const Eigen::VectorXd& r,
                                         const Eigen::VectorXd& c, const InteriorPointOptions& options = {});
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

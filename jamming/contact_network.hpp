@@ -1,31 +1,24 @@
 #pragma once
 // Contact network of a (nearly) jammed hard-sphere packing: contacts from gaps, rattlers, isostaticity.
 //
-// Contacts are pairs with gap h_ij = |r_ij| - (r_i + r_j) <= tau (r_i + r_j) (seed 001 :6540-6542,
-// :11488-11493: the mean contact number is insensitive to tau across the plateau 1e-9..1e-5 once p is
-// high, since contact gaps scale as D/p). Rattlers are removed iteratively: a particle with fewer than
-// d + 1 = 4 contacts among non-rattlers cannot be locally jammed (:4116-4119) and is dropped, which can
-// expose further rattlers (digest §3.8 [rec]). Isostatic backbone in a periodic box (collective
-// jamming, fixed lattice): M = N_f + 1 = 3 N' - 2 contacts among N' non-rattlers (eq. 4.8, :4482-4502).
+// Contacts are pairs with gap h_ij = |r_ij| - (r_i + r_j) <= tau (r_i + r_j) (A. Donev, "Jammed Packings of
+// Hard Particles", PhD thesis, Princeton University (2006), §5.1 and §9.3.1.4, Fig. 9.8: the mean contact
+// number is insensitive to tau across the plateau 1e-9..1e-5 once p is high, since contact gaps scale as
+// D/p). Rattlers are removed iteratively: a particle with fewer than d + 1 = 4 contacts among non-rattlers
+// cannot be locally jammed (§4.2.2; the d + 1 rule of §11.3.2) and is dropped, which can expose further
+// rattlers (our choice: repeated until stable). Isostatic backbone in a periodic box (collective jamming,
+// fixed lattice): M = N_f + 1 = 3 N' - 2 contacts among N' non-rattlers (§4.3.1.1, eq. 4.8).
 #include <cstdint>
 #include <optional>
 #include <span>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
 #include "core/box.hpp"
 #include "core/particle_store.hpp"
 
-namespace polydem::edmd {
-
-/// Outcome of a jamming test. NotTested: the test did not run or cannot apply (no spheres, no LP solved,
-/// nothing to watch), so it says nothing either way; never read it as "jammed".
-enum class JammingVerdict { NotTested, Jammed, Unjammed, Undecided };
-
-/// "not tested", "jammed", "unjammed", "undecided".
-std::string_view verdictName(JammingVerdict verdict);
+namespace polydem::jamming {
 
 struct ContactOptions {
   double relativeGap = 1e-8;  ///< tau: contact when gap <= tau (r_i + r_j)
@@ -57,7 +50,7 @@ struct ContactNetwork {
   double backboneCoordination() const;
   double rattlerFraction() const;
   /// M' - (N_f + 1), N_f = 3 N' - (periodic axes): 0 for an isostatic, collectively jammed backbone
-  /// (3N' - 2 in a periodic box, 3N' + 1 between walls; eq. 4.8, :4476-4502).
+  /// (3N' - 2 in a periodic box, 3N' + 1 between walls; Donev 2006, §4.3.1.1, eq. 4.8).
   std::int64_t isostaticExcess() const {
     return backboneContacts - (3 * static_cast<std::int64_t>(backbone) - periodicAxes + 1);
   }
@@ -68,14 +61,15 @@ struct ContactNetwork {
 ContactNetwork analyseContacts(const SphereView& spheres, const Box& box, const ContactOptions& options = {});
 
 /// Cumulative coordination Z(tau) = 2 #{pairs with gap <= tau (r_i + r_j)} / N for each tau (ascending),
-/// all particles counted (seed 001 :11245-11262; the plateau at 6 over many decades marks true contacts).
+/// all particles counted (Donev 2006, §9.3.1, Fig. 9.4; the plateau at 6 over many decades marks true contacts).
 std::vector<double> cumulativeCoordination(const SphereView& spheres, const Box& box, const std::vector<double>& taus,
                                            const std::string& broadPhase = "hgrid-td");
 
 /// Pair correlation of the centre distance scaled by the pair's contact distance, x = |r_ij| / (r_i + r_j),
 /// on [0, xMax) in `bins` bins, normalised by the ideal-gas count sum_{i != j} (r_i + r_j)^3 (4 pi / 3V)
 /// (x_hi^3 - x_lo^3): 1 at large x, a delta-like peak at x = 1 for a jammed packing; works for any size
-/// distribution (digest §4.10). Periodic boxes; O(N x neighbours within xMax).
+/// distribution (Donev 2006, §9.3.1, defines g2 and Z(l) for equal spheres). Periodic boxes; O(N x neighbours
+/// within xMax).
 struct PairCorrelation {
   std::vector<double> x;  ///< bin centres
   std::vector<double> g;
@@ -84,9 +78,9 @@ PairCorrelation pairCorrelation(const SphereView& spheres, const Box& box, doubl
                                 const std::string& broadPhase = "hgrid-td");
 
 /// Default relative gap for a packing at reduced pressure p. Contact gaps scale as delta = 1/p, and the
-/// contact number is flat for 100 delta < tau < 1e-5 (seed :11488-11493); take the geometric middle of
+/// contact number is flat for 100 delta < tau < 1e-5 (Donev 2006, §9.3.1.4); take the geometric middle of
 /// that plateau, sqrt(100/p x 1e-5) = sqrt(1e-3/p) (3e-8 at p = 1e12, where the near-contact background
-/// Z_b ~ 11 (l/D)^0.6 of seed :11402-11404 adds 3e-4 per particle), and 100/p when there is no plateau;
+/// Z_b ~ 11 (l/D)^0.6 of Donev 2006, §9.3.1.2, Fig. 9.6, adds 3e-4 per particle), and 100/p when there is no plateau;
 /// at most 1e-3.
 double defaultContactGap(double pressure);
 
@@ -157,4 +151,4 @@ std::string describeInvalidPacking(const PackingValidity& validity, std::span<co
 PackingValidity requireHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options,
                                          const std::string& what, std::span<const Index> ids = {});
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

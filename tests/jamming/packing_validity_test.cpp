@@ -1,5 +1,5 @@
 // Verdicts only where they apply (issue 15): the validity check of a hard-sphere packing (overlaps against
-// the smaller radius, density against the bound of edmd/contact_network.hpp), the true smallest gap, and
+// the smaller radius, density against the bound of jamming/contact_network.hpp), the true smallest gap, and
 // jamming tests that say "not tested" instead of a vacuous "jammed".
 #include <gtest/gtest.h>
 
@@ -9,11 +9,11 @@
 #include <vector>
 
 #include "core/errors.hpp"
-#include "edmd/contact_network.hpp"
-#include "edmd/jamming_test.hpp"
+#include "jamming/contact_network.hpp"
+#include "jamming/load_protocols.hpp"
 #include "tests/support/lattices.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 namespace {
 
 const double kFcc = kPi / std::sqrt(18.0);
@@ -23,7 +23,7 @@ TEST(PackingValidity, InflatedFccIsRefused) {
   // far beyond any contact tolerance), and the packing fraction is 1.01^3 x pi/sqrt(18) = 0.763.
   Eigen::Matrix3Xd x;
   Eigen::VectorXd r;
-  const Box box = testing::latticePacking(true, 3, -0.01, x, r);
+  const Box box = edmd::testing::latticePacking(true, 3, -0.01, x, r);
   const SphereView spheres{x, r};
   const PackingValidity v = checkHardSpherePacking(spheres, box, {.overlapTolerance = 1e-4});
   EXPECT_FALSE(v.valid());
@@ -64,7 +64,7 @@ TEST(PackingValidity, DensityAboveFccIsRefusedEvenWithOverlapsInsideTheTolerance
   // FCC: the density alone refuses it, and the message still names the worst pair.
   Eigen::Matrix3Xd x;
   Eigen::VectorXd r;
-  const Box box = testing::latticePacking(true, 3, -0.01, x, r);
+  const Box box = edmd::testing::latticePacking(true, 3, -0.01, x, r);
   const PackingValidity v = checkHardSpherePacking(SphereView{x, r}, box, {.overlapTolerance = 0.05});
   EXPECT_FALSE(v.overlapTooLarge());
   EXPECT_TRUE(v.densityTooHigh());
@@ -77,7 +77,7 @@ TEST(PackingValidity, JammedFccAndLatticesAtContactAreValid) {
   for (const double gap : {1e-9, 0.0}) {
     Eigen::Matrix3Xd x;
     Eigen::VectorXd r;
-    const Box box = testing::latticePacking(true, 3, gap, x, r);
+    const Box box = edmd::testing::latticePacking(true, 3, gap, x, r);
     const PackingValidity v = checkHardSpherePacking(SphereView{x, r}, box, {.overlapTolerance = 1e-8});
     EXPECT_TRUE(v.valid()) << describeInvalidPacking(v);
     EXPECT_LE(v.packingFraction, kFcc * (1.0 + 1e-12));
@@ -208,23 +208,24 @@ TEST(SmallestGap, DiluteGasAgreesWithBruteForce) {
 TEST(JammingVerdicts, NoLoadsIsRefusedAndNoSpheresIsNotTested) {
   Eigen::Matrix3Xd x;
   Eigen::VectorXd r;
-  const Box box = testing::latticePacking(true, 2, 1e-9, x, r);
+  const Box box = edmd::testing::latticePacking(true, 2, 1e-9, x, r);
   const SphereView spheres{x, r};
   const ContactNetwork net = analyseContacts(spheres, box, ContactOptions{.relativeGap = 1e-8});
   LoadTestOptions none;
   none.loads = 0;
   EXPECT_THROW(testJammingUnderLoad(spheres, box, net, none), ConfigError);
-  none.sequential = true;
+  none.protocol = LoadProtocol::Sequential;
   EXPECT_THROW(testJammingUnderLoad(spheres, box, net, none), ConfigError);
 
   const Eigen::Matrix3Xd noCentre(3, 0);
   const Eigen::VectorXd noRadius(0);
   const SphereView empty{noCentre, noRadius};
   const ContactNetwork emptyNet = analyseContacts(empty, box, {});
-  for (bool sequential : {false, true}) {
+  for (LoadProtocol protocol : {LoadProtocol::SingleLp, LoadProtocol::Sequential}) {
     LoadTestOptions options;
-    options.sequential = sequential;
-    const LoadTestResult load = testJammingUnderLoad(empty, box, emptyNet, options);
+    options.protocol = protocol;
+    const LoadTestResult result = testJammingUnderLoad(empty, box, emptyNet, options);
+    const LoadTestSummary& load = summaryOf(result);
     EXPECT_EQ(load.outcome, JammingVerdict::NotTested);
     EXPECT_FALSE(load.jammed);
     EXPECT_EQ(load.verdict.find("jammed"), std::string::npos) << load.verdict;
@@ -237,7 +238,7 @@ TEST(JammingVerdicts, NoLoadsIsRefusedAndNoSpheresIsNotTested) {
     const JammingTestResult fcc = testCollectiveJamming(spheres, box, net);
     EXPECT_EQ(fcc.outcome, JammingVerdict::Jammed) << fcc.verdict;
     EXPECT_GT(fcc.lps, 0);
-    const LoadTestResult loaded = testJammingUnderLoad(spheres, box, net);
+    const SingleLoadResult loaded = testSingleLoads(spheres, box, net);
     EXPECT_EQ(loaded.outcome, JammingVerdict::Jammed) << loaded.verdict;
   }
   EXPECT_EQ(verdictName(JammingVerdict::NotTested), "not tested");
@@ -253,7 +254,7 @@ TEST(JammingVerdicts, AGasIsUnjammedNotJammed) {
   const SphereView spheres{x, r};
   const ContactNetwork net = analyseContacts(spheres, box, {});
   EXPECT_EQ(net.backbone, 0);
-  const LoadTestResult load = testJammingUnderLoad(spheres, box, net);
+  const SingleLoadResult load = testSingleLoads(spheres, box, net);
   EXPECT_EQ(load.outcome, JammingVerdict::Unjammed);
   EXPECT_FALSE(load.jammed);
   if (jammingTestAvailable()) {
@@ -262,4 +263,4 @@ TEST(JammingVerdicts, AGasIsUnjammedNotJammed) {
 }
 
 }  // namespace
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -1,6 +1,6 @@
 // The interior-point LP solver behind the load test of large packings: textbook optimum, optimality
 // conditions on random LPs, and bad input.
-#include "edmd/interior_point.hpp"
+#include "jamming/interior_point.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 
 #include "core/errors.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 namespace {
 
 Eigen::SparseMatrix<double> sparse(const Eigen::MatrixXd& dense) { return dense.sparseView(); }
@@ -68,4 +68,4 @@ TEST(InteriorPoint, RejectsMismatchedSizes) {
 }
 
 }  // namespace
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -1,12 +1,13 @@
 #pragma once
-// The pressure-leak test for jamming (seed 001 ch. 9.3.1, shared/seeds/001_3d36564c50aaa2ef.txt:11163-11189,
-// Fig. 9.3; digest §3.6): run plain event-driven dynamics (no growth) on the final packing for thousands
-// of collisions per particle and watch the block-averaged reduced pressure and the displacement of the
-// spheres from where they started. A jammed packing keeps its pressure and its backbone stays inside
-// its jamming polytope (displacements of the order of the jamming gap); a packing that is not truly
-// jammed leaks pressure slowly while its spheres drift away from the initial configuration. The seed
-// used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and N > ~1000, where its
-// LP library was neither accurate nor large enough, and found that the two signals always agreed.
+// The pressure-leak test for jamming (A. Donev, "Jammed Packings of Hard Particles", PhD thesis, Princeton
+// University (2006), §9.3.1, Fig. 9.3): run plain event-driven dynamics (no growth) on the final packing
+// for thousands of collisions per particle and watch the block-averaged reduced pressure and the
+// displacement of the spheres from where they started. A jammed packing keeps its pressure and its
+// backbone stays inside its jamming polytope (displacements of the order of the jamming gap); a packing
+// that is not truly jammed leaks pressure slowly while its spheres drift away from the initial
+// configuration. Donev used it instead of the LP test for packings jammed to delta = 1e-15 .. 1e-12 and
+// N > ~1000, where his LP library was neither accurate nor large enough, and found that the two signals
+// always agreed.
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
@@ -15,10 +16,11 @@
 
 #include "core/box.hpp"
 #include "core/types.hpp"
-#include "edmd/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
+#include "jamming/contact_network.hpp"
+#include "jamming/verdict.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
 
 struct LeakTestOptions {
   double collisionsPerParticle = 1e4;  ///< length of the run
@@ -31,7 +33,7 @@ struct LeakTestOptions {
   /// block; growth linear in time gives 1.75.
   double driftFactor = 1.5;
   std::uint64_t seed = 1;  ///< Maxwell-Boltzmann velocities, thermal speed 1
-  SystemOptions system;
+  edmd::SystemOptions system;
   std::function<void(const std::string&)> progress;  ///< one line per block
 };
 
@@ -54,7 +56,7 @@ struct LeakTestResult {
   /// no sphere watched (every sphere a rattler: a gas keeps its pressure without being jammed).
   JammingVerdict outcome = JammingVerdict::NotTested;
   std::string verdict;
-  EventCounts counts;
+  edmd::EventCounts counts;
   double seconds = 0.0;
 };
 
@@ -65,4 +67,4 @@ struct LeakTestResult {
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options);
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming

@@ -1,4 +1,4 @@
-#include "edmd/leak_test.hpp"
+#include "jamming/pressure_leak.hpp"
 
 #include <fmt/format.h>
 
@@ -9,7 +9,39 @@
 #include "core/errors.hpp"
 #include "edmd/compression.hpp"
 
-namespace polydem::edmd {
+namespace polydem::jamming {
+
+namespace {
+
+// The block's mean and largest displacement of the watched spheres from `origin`, in own diameters.
+void measureDisplacements(const Box& box, const Eigen::Matrix3Xd& now, const Eigen::Matrix3Xd& origin,
+                          const Eigen::VectorXd& radius, const std::vector<char>& rattler, LeakBlock& block) {
+  // Displacements relative to the backbone's mean displacement: the backbone as a whole may translate
+  // (momentum goes back and forth between it and the rattlers), which is no unjamming motion.
+  const Index n = static_cast<Index>(radius.size());
+  Eigen::Matrix3Xd moved(3, n);
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Index watched = 0;
+  for (Index i = 0; i < n; ++i) {
+    moved.col(i) = box.minimumImage(now.col(i) - origin.col(i));
+    if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
+    translation += moved.col(i);
+    ++watched;
+  }
+  if (watched > 0) translation /= static_cast<double>(watched);
+  for (Index i = 0; i < n; ++i) {
+    if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
+    const double d = (moved.col(i) - translation).norm() / (2.0 * radius[i]);
+    block.meanDisplacement += d;
+    if (d > block.maxDisplacement) {
+      block.maxDisplacement = d;
+      block.maxSphere = i;
+    }
+  }
+  if (watched > 0) block.meanDisplacement /= static_cast<double>(watched);
+}
+
+}  // namespace
 
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options) {
@@ -40,10 +72,11 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
     return out;
   }
   const auto start = std::chrono::steady_clock::now();
-  HardSphereSystem system(box, position, radius, maxwellBoltzmannVelocities(radius, options.seed), options.system);
+  edmd::HardSphereSystem system(box, position, radius, edmd::maxwellBoltzmannVelocities(radius, options.seed),
+                               options.system);
   system.setGrowthRate(0.0);
   system.setThermalSpeed(1.0);
-  const EventCounts initial = system.counts();
+  const edmd::EventCounts initial = system.counts();
   const Eigen::Matrix3Xd origin = system.positions();
 
   const double perBlock = options.collisionsPerParticle / options.blocks;
@@ -51,35 +84,13 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   double done = 0.0;
   for (int b = 0; b < options.blocks; ++b) {
     system.resetPressureWindow();
-    const EventCounts c = system.run(blockCollisions);
+    const edmd::EventCounts c = system.run(blockCollisions);
     system.synchronise();
     done += static_cast<double>(c.collisions) / static_cast<double>(std::max<Index>(n, 1));
     LeakBlock block;
     block.collisionsPerParticle = done;
     block.pressure = system.pressureWindow().reducedPressure();
-    // Displacements relative to the backbone's mean displacement: the backbone as a whole may translate
-    // (momentum goes back and forth between it and the rattlers), which is no unjamming motion.
-    const Eigen::Matrix3Xd now = system.positions();
-    Eigen::Matrix3Xd moved(3, n);
-    Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-    Index watched = 0;
-    for (Index i = 0; i < n; ++i) {
-      moved.col(i) = box.minimumImage(now.col(i) - origin.col(i));
-      if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
-      translation += moved.col(i);
-      ++watched;
-    }
-    if (watched > 0) translation /= static_cast<double>(watched);
-    for (Index i = 0; i < n; ++i) {
-      if (!rattler.empty() && rattler[static_cast<std::size_t>(i)]) continue;
-      const double d = (moved.col(i) - translation).norm() / (2.0 * radius[i]);
-      block.meanDisplacement += d;
-      if (d > block.maxDisplacement) {
-        block.maxDisplacement = d;
-        block.maxSphere = i;
-      }
-    }
-    if (watched > 0) block.meanDisplacement /= static_cast<double>(watched);
+    measureDisplacements(box, system.positions(), origin, radius, rattler, block);
     out.blocks.push_back(block);
     if (options.progress) {
       options.progress(fmt::format(
@@ -114,7 +125,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   for (std::size_t k = 0; k < quarter; ++k) late += out.blocks[m - 1 - k].meanDisplacement;
   late /= static_cast<double>(quarter);
   const double end = out.blocks.back().meanDisplacement;
-  out.driftRatio = early > 0.0 ? late / early : (late > 0.0 ? HardSphereSystem::kInfinity : 1.0);
+  out.driftRatio = early > 0.0 ? late / early : (late > 0.0 ? edmd::HardSphereSystem::kInfinity : 1.0);
   const bool leak = !(out.pressureChange >= -options.pressureTolerance);
   const bool drift = !(out.driftRatio <= options.driftFactor);
   if (out.counts.collisions == 0 || !(first > 0.0)) {
@@ -138,4 +149,4 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   return out;
 }
 
-}  // namespace polydem::edmd
+}  // namespace polydem::jamming
