@@ -1,7 +1,7 @@
 // Equivalent bi- and tridisperse mixtures as Gaussian quadratures of f(a); see equivalent_mixture.hpp.
 // Chebyshev algorithm: W. Gautschi, Orthogonal Polynomials: Computation and Approximation (2004), §2.1.7;
-// Golub-Welsch: Math. Comp. 23, 221 (1969). Closed forms: seed 000 eqs. 3.20-3.21 (L5288-5344),
-// 3.39-3.42 (L6305-6375).
+// Golub-Welsch: Math. Comp. 23, 221 (1969). Closed forms: Ogarko's thesis eqs. 3.20-3.21 (§3.1 appendix),
+// 3.39-3.42 (§3.3.2).
 #include "core/equivalent_mixture.hpp"
 
 #include <fmt/format.h>

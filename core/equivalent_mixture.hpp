@@ -1,8 +1,8 @@
 #pragma once
-// Equivalent discrete mixtures of a polydisperse radius distribution (seed 000 ch. 3):
+// Equivalent discrete mixtures of a polydisperse radius distribution (Ogarko's thesis ch. 3):
 //   equivalent bidisperse mixture: two radii matching <a>, <a^2>, <a^3> (hence O1, O2, the fluid EOS and,
-//     at equal N and V, the packing fraction)                             (eqs. 3.20-3.21, L5288-5344)
-//   maximally equivalent tridisperse mixture: three radii matching <a> .. <a^5>  (§3.2, L5615-5650, L6163-6303)
+//     at equal N and V, the packing fraction)                             (eqs. 3.20-3.21, §3.1 appendix)
+//   maximally equivalent tridisperse mixture: three radii matching <a> .. <a^5>  (§3.2, §3.3.2)
 // Both are the 2- resp. 3-node Gaussian quadrature of f(a) (digest shared/spec/hgrid-and-polydispersity.md
 // §6.4 [V], §6.5): nodes = radii, weights = number fractions; Tables 3.1, 3.3, 3.4 of the seed are
 // reproduced by it (tests/core/equivalent_mixture_test.cpp).
@@ -67,12 +67,12 @@ BidisperseRatios bidisperseFromRatios(double o1, double o2);
 
 /// The maximally equivalent tridisperse mixture of the uniform-size (US) distribution with size ratio
 /// omega and mean radius `mean`: fractions 5:8:5, radii <a>(1 + sqrt(3/5) w0), <a>, <a>(1 - sqrt(3/5) w0),
-/// w0 = (omega - 1)/(omega + 1) (eqs. 3.39-3.40, L6305-6334).
+/// w0 = (omega - 1)/(omega + 1) (eqs. 3.39-3.40, §3.3.2).
 Mixture uniformSizeTridisperse(double omega, double mean);
 
 /// Tridisperse mixtures matching <a> and the central moments M^c_2, M^c_3, M^c_5 of US(omega) (the seed's
-/// "scaled moments k = 2, 3, 5", L5800-5803) with the kurtosis beta2 = M^c_4/(M^c_2)^2 free
-/// (eqs. 3.41-3.42, printed for omega = 3, L6336-6375): n1 = n3 = 1/(2 beta2), n2 = (beta2 - 1)/beta2,
+/// "scaled moments k = 2, 3, 5", §3.2) with the kurtosis beta2 = M^c_4/(M^c_2)^2 free
+/// (eqs. 3.41-3.42, printed for omega = 3, §3.3.2): n1 = n3 = 1/(2 beta2), n2 = (beta2 - 1)/beta2,
 /// radii <a>(1 +- w0 sqrt(beta2/3)), <a>. For omega = 3 (w0 = 1/2) this is the seed's
 /// delta1 = (6 + sqrt(3 beta2))/(12 beta2); other omega are our generalisation. beta2 = 1.8 is the
 /// 5:8:5 rule. Throws ConfigError unless 1 < beta2 < 3/w0^2 (all radii positive, middle species present).

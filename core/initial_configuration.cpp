@@ -6,10 +6,11 @@
 // packing fraction 0.38 for monodisperse spheres; beyond that one needs compression (event-driven LS),
 // which is what the stall error points to.
 //
-// Overlap queries use a private multi-level grid in the spirit of the hierarchical grid of seed 000
-// (shared/seeds/000_3b5cd2443ded9063.txt:1110-1125, spec §1): radii are binned by factors of 2 below the
-// largest, each level is a dense grid whose cells are at least that level's largest diameter, and a
-// trial sphere of radius r is tested against level l over the cells within r + rmax_l of its centre.
+// Overlap queries use a private multi-level grid in the spirit of the hierarchical grid of Ogarko &
+// Luding, Comput. Phys. Commun. 183 (2012) 931 (Ogarko's thesis §2.1.3, "Polydisperse systems"; spec §1):
+// radii are binned by factors of 2 below the largest, each level is a dense grid whose cells are at
+// least that level's largest diameter, and a trial sphere of radius r is tested against level l over
+// the cells within r + rmax_l of its centre.
 // Cells per level are capped at 8 x (spheres in the level) by enlarging cells, so memory stays O(N)
 // for any size distribution. A hash of occupied cells would also work; dense arrays are simpler and a
 // level is only touched once its spheres start to be placed. Rejected design: one grid sized to the

@@ -1,4 +1,4 @@
-// Moments and descriptors of a radius distribution; definitions in moments.hpp (seed 000 §3.1-3.3).
+// Moments and descriptors of a radius distribution; definitions in moments.hpp (Ogarko's thesis §3.1-3.3).
 #include "core/moments.hpp"
 
 #include <fmt/format.h>

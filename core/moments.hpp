@@ -1,10 +1,10 @@
 #pragma once
 // Moments and moment-based descriptors of a radius distribution (number-weighted):
 //   raw <a^k> (k = 0..5), mean diameters D_pq = 2 (<a^p>/<a^q>)^(1/(p-q)),
-//   O1 = <a><a^2>/<a^3> = D10/D32, O2 = <a^2>^3/<a^3>^2 = (D20/D32)^2       (seed 000 eq. 3.6, L4225-4230)
-//   delta = std/mean = sqrt(O2/O1^2 - 1), A = 1/(delta^2 + 1) = O1^2/O2     (L5458-5464)
+//   O1 = <a><a^2>/<a^3> = D10/D32, O2 = <a^2>^3/<a^3>^2 = (D20/D32)^2       (Ogarko's thesis eq. 3.6, §3.1.2)
+//   delta = std/mean = sqrt(O2/O1^2 - 1), A = 1/(delta^2 + 1) = O1^2/O2     (§3.1 appendix)
 //   scaled M_k = <a^k>/<a>^k, central M^c_k = <(a - <a>)^k>/<a>^k,
-//   kurtosis beta2 = M^c_4/(M^c_2)^2                                          (L5634-5656, L5802, L6297-6303)
+//   kurtosis beta2 = M^c_4/(M^c_2)^2                                          (§3.2, §3.3.2)
 // Bounds: 0 < O1 <= 1 and O1^2 <= O2 <= O1, equalities only for a monodisperse distribution
 // (digest shared/spec/hgrid-and-polydispersity.md §3.2; the extraction garbled them, §9 item 9).
 //

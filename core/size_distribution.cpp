@@ -1,11 +1,15 @@
 // Particle size distributions: analytic CDF, quantile and partial moments, and systematic sampling.
 //
-// Families and their moments follow seed 000 (shared/seeds/000_3b5cd2443ded9063.txt):
-//   truncated power law f(r) = C r^alpha on [rmin, rmax], 1/C = int r^alpha dr   (eqs. 2.37-2.38, :2621, :2634)
-//     alpha = 0 is "uniform size" (US), alpha = -3 "uniform volume" (UV) (:2640-2662, eq. 3.43 at :6409)
-//   log-normal f(a) = exp(-ln^2(a/a0) / (2 sigma^2)) / (sigma sqrt(2 pi) a)      (eq. 3.46, :6510)
-//     <a^k> = a0^k exp(k^2 sigma^2 / 2)                                           (eq. 3.51, :6584)
-//   systematic sampling guarantees the rare largest sizes are present               (:1115-1125, :4467-4475)
+// Families and their moments follow V. Ogarko's dissertation (University of Twente; "Ogarko's thesis"):
+//   truncated power law f(r) = C r^alpha on [rmin, rmax], 1/C = int r^alpha dr   (Ogarko's thesis §2.2.4,
+//     eqs. 2.37-2.38; Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357)
+//     alpha = 0 is "uniform size" (US), alpha = -3 "uniform volume" (UV) (Ogarko's thesis §2.2.4 and Fig. 2.8;
+//     §3.3.2, eq. 3.43)
+//   log-normal f(a) = exp(-ln^2(a/a0) / (2 sigma^2)) / (sigma sqrt(2 pi) a)      (Ogarko's thesis §3.3.2, eq. 3.46)
+//     <a^k> = a0^k exp(k^2 sigma^2 / 2)                                           (Ogarko's thesis §3.3.2, eq. 3.51)
+//   (§3.3 is the supplementary material of Ogarko & Luding, Soft Matter 9 (2013) 9530)
+//   systematic sampling guarantees the rare largest sizes are present  (Ogarko's thesis §2.1.3 and Fig. 2.3;
+//     §3.1.3; Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931; J. Chem. Phys. 136 (2012) 124508)
 // The seed does not print the systematic-sampling formula; we use the standard one (one offset u for all
 // strata, spec §3.3): r_i = F^-1((i + u) / N).
 //

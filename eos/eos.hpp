@@ -1,24 +1,25 @@
 #pragma once
-// Equations of state of polydisperse hard-sphere fluids and the jamming-density laws of seed 000 ch. 3
-// (shared/seeds/000_3b5cd2443ded9063.txt; digest shared/spec/hgrid-and-polydispersity.md §6.3, §6.6).
+// Equations of state of polydisperse hard-sphere fluids and the jamming-density laws of V. Ogarko's
+// dissertation (University of Twente), ch. 3: Ogarko & Luding, J. Chem. Phys. 136 (2012) 124508 (§3.1)
+// and Soft Matter 9 (2013) 9530 (§3.2-3.3).
 //
 // Fluid EOS, Z = pV/(N k_B T) at packing fraction nu, depending on the size distribution only through
 // O1 = <a><a^2>/<a^3> and O2 = <a^2>^3/<a^3>^2 (eq. 3.6):
-//   g_eff = [(1-nu)^2 + 3 O1 (1-nu) + O2 (3-nu) nu] / (4 (1-nu)^3),  Z = 1 + 4 nu g_eff   (eqs. 3.7-3.8, L4225-4241)
-//   Z_BMCSL = 1/(1-nu) + O1 3nu/(1-nu)^2 + O2 nu^2 (3-nu)/(1-nu)^3            (eq. 3.9, L4289; = eq. 3.8)
-//   Z_SCS   = Z_BMCSL + (O1 - O2) nu^3/(1-nu)^3                               (eq. 3.10, L4303)
-//   Z_CSK   = [1 + nu + nu^2 - 2 nu^3 (1+nu)/3]/(1-nu)^3  (monodisperse)      (L4305-4309)
-//   Z_SCSK  = Z_SCS + (O1 + O2) nu^3 (1 - 2nu)/(6 (1-nu)^3)                   (eq. 3.11, L4315)
-//   Z_BCSK  = Z_BMCSL + O2 nu^3 (1 - 2nu)/(3 (1-nu)^3)                        (eq. 3.12, L4324)
-//   Z_OL    = (Z_SCS + Z_BCSK)/2                                               (eq. 3.13, L4523)
+//   g_eff = [(1-nu)^2 + 3 O1 (1-nu) + O2 (3-nu) nu] / (4 (1-nu)^3),  Z = 1 + 4 nu g_eff   (eqs. 3.7-3.8, §3.1.2)
+//   Z_BMCSL = 1/(1-nu) + O1 3nu/(1-nu)^2 + O2 nu^2 (3-nu)/(1-nu)^3            (eq. 3.9, §3.1.2; = eq. 3.8)
+//   Z_SCS   = Z_BMCSL + (O1 - O2) nu^3/(1-nu)^3                               (eq. 3.10, §3.1.2)
+//   Z_CSK   = [1 + nu + nu^2 - 2 nu^3 (1+nu)/3]/(1-nu)^3  (monodisperse)      (§3.1.2)
+//   Z_SCSK  = Z_SCS + (O1 + O2) nu^3 (1 - 2nu)/(6 (1-nu)^3)                   (eq. 3.11, §3.1.2)
+//   Z_BCSK  = Z_BMCSL + O2 nu^3 (1 - 2nu)/(3 (1-nu)^3)                        (eq. 3.12, §3.1.2)
+//   Z_OL    = (Z_SCS + Z_BCSK)/2                                               (eq. 3.13, §3.1.3)
 //   Z_CS    = (1 + nu + nu^2 - nu^3)/(1-nu)^3 (monodisperse Carnahan-Starling; = Z_BMCSL at O1 = O2 = 1)
 // Near jamming, the free-volume (Salsburg-Wood) law Z = d/(1 - nu/phi_J) and its inversion, the estimator
-// phi_J = nu/(1 - d/Z) (eq. 3.14, L4561-4573).
+// phi_J = nu/(1 - d/Z) (eq. 3.14, §3.1.3).
 // Jamming-density fits nu_max = nu_inf - (nu_inf - phi_RCP) F (natural logarithms; digest §9 items 10-12):
-//   US  eq. 3.15 (L4894): F = 3 omega^-2 - 2 omega^-3,                         nu_inf 0.6828, phi_RCP 0.65
-//   UV  eq. 3.16 (L4915): F = (omega^-1 - omega^-2 + omega^-3)(1 + 2 ln omega), nu_inf 0.859,  phi_RCP 0.647
-//   LN  eq. 3.52 (L6666): F = exp(-2 sigma^2) = (D32/D43)^2 (eq. 3.54),         nu_inf 0.7990, phi_RCP 0.6373
-//   LN  eq. 3.55 (L6714): nu_max = nu_inf + c1 exp(-sigma^2) + c2 exp(-sigma^3), 0.8583, -0.3516, 0.1332
+//   US  eq. 3.15 (§3.1.3): F = 3 omega^-2 - 2 omega^-3,                         nu_inf 0.6828, phi_RCP 0.65
+//   UV  eq. 3.16 (§3.1.3): F = (omega^-1 - omega^-2 + omega^-3)(1 + 2 ln omega), nu_inf 0.859,  phi_RCP 0.647
+//   LN  eq. 3.52 (§3.3.2): F = exp(-2 sigma^2) = (D32/D43)^2 (eq. 3.54),         nu_inf 0.7990, phi_RCP 0.6373
+//   LN  eq. 3.55 (§3.3.2): nu_max = nu_inf + c1 exp(-sigma^2) + c2 exp(-sigma^3), 0.8583, -0.3516, 0.1332
 // The fits describe the seed's own compressions (N = 4096..16384, Gamma 8e-6..16e-3), not a universal law.
 #include <string>
 #include <string_view>

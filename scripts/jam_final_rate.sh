@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Final growth rate of the Lubachevsky-Stillinger schedule against the jammed packing and its cost
 # (issue 6 report: phi_J and its distance from the slow-rate limit against wall time; also the contact
-# deficit of the backbone, which the seed ties to the final rate, :11194-11268).
+# deficit of the backbone, which Donev ties to the final rate: A. Donev, "Jammed Packings of Hard
+# Particles", PhD thesis, Princeton University (2006), §9.3.1 and Fig. 9.4).
 # Monodisperse N spheres (default 1000), one growth rate R from the random sequential addition start at
 # phi 0.3 to p = 1e12 (switching to R only at p = 1e4 leaves phi_J unchanged to 1e-8, the structure is
 # set by then, and changes only the contacts; docs/edmd.md); two seeds per rate (the same seed gives the

@@ -1,11 +1,12 @@
 #pragma once
-// Channel sizes from neighbour triangles (seed 000 §4.2, L7077-7193; spec §7.1): for every particle i and
+// Channel sizes from neighbour triangles (Ogarko's thesis §4.2, i.e. Ogarko, Rivas & Luding, submitted
+// 2014; spec §7.1): for every particle i and
 // every 3-subset {a, b, c} of its weighted-Delaunay neighbours (the central particle is not a vertex),
 // keep the triangle if it is acute, a^2 + b^2 > eps c^2 for every edge ordering with eps = 1 - 1e-12
-// (right angles kept; footnote L7243-7245), and take the circle in the triangle's plane that is
-// externally tangent to the three great circles of the neighbours (the Apollonius problem, L7112-7132)
+// (right angles kept; footnote §4.3), and take the circle in the triangle's plane that is
+// externally tangent to the three great circles of the neighbours (the Apollonius problem, §4.2)
 // and contains none of their centres: the channel, of radius R_j. The statistic is the histogram of
-// R_j / r_i, bin 0.01, normalised to unit area (L7134-7154). Peaks: 2/sqrt(3) - 1 (three touching equal
+// R_j / r_i, bin 0.01, normalised to unit area (§4.2). Peaks: 2/sqrt(3) - 1 (three touching equal
 // spheres), sqrt(2) - 1 (square), 1 (three touching neighbours coplanar with the centre at 120 deg).
 //
 // Apollonius solver (our reconstruction, spec §7.1 [rec]): in plane coordinates with centre 1 at the

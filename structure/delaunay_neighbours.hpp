@@ -1,7 +1,7 @@
 #pragma once
 // Neighbour lists for structure analysis: the edges of the weighted Delaunay (regular) triangulation of
 // the centres with weights r^2 (the power / Laguerre tessellation's face neighbours), each neighbour
-// with the explicit vector to the image that is the neighbour (seed 000 L6757-6769, L7094-7100: "the
+// with the explicit vector to the image that is the neighbour (Ogarko's thesis §3.3.3, §4.2: "the
 // neighbours are the edges of the weighted Delaunay triangulation; periodicity by replicating the box").
 //
 // Periodic axes: instead of replicating the whole box 27 times, only images within a shell of thickness

@@ -6,7 +6,7 @@
 //   Q_lm = a_lm (z Q_(l-1)m - b_lm Q_(l-2)m),  a_lm = sqrt((4l^2 - 1) / (l^2 - m^2)),
 //   b_lm = sqrt(((l - 1)^2 - m^2) / (4 (l - 1)^2 - 1)),
 // and Y_l(-m) = (-1)^m conj(Y_lm). Stable for every direction (no division by sin theta at the poles).
-// Used for the bond-orientational order q_lm of seed 000 eq. 3.56 (L6727-6757).
+// Used for the bond-orientational order q_lm of Ogarko's thesis eq. 3.56 (§3.3.3).
 #include <Eigen/Core>
 #include <complex>
 #include <span>

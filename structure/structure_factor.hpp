@@ -1,6 +1,6 @@
 #pragma once
-// Structure factor and spectral density of a periodic sphere configuration (seed 000 §3.3.4, eqs.
-// 3.58-3.60, L6837-6934; seed 001 ch. 10, L12006-12031):
+// Structure factor and spectral density of a periodic sphere configuration (Ogarko's thesis §3.3.4, eqs.
+// 3.58-3.60, §3.3.4; Donev 2006 ch. 10, §10.2):
 //   S(k)   = |sum_j exp(-i k.r_j)|^2 / N                         (k != 0)
 //   chi(k) = |sum_j exp(-i k.r_j) m(k; R_j)|^2 / V,   m(k; R) = 4 pi (sin kR - kR cos kR) / k^3
 // on the wave vectors allowed by the box, k = 2 pi (n_x / L_x, n_y / L_y, n_z / L_z), averaged over

@@ -6,7 +6,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/io/particle_file.hpp"
+#include "core/io/particle_data.hpp"
 
 namespace polydem::io {
 

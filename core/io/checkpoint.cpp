@@ -83,6 +83,23 @@ namespace {
 using hdf5::Handle;
 using hdf5::QuietErrors;
 
+/// A creation property list of `propertyClass` with object time stamps off: HDF5 otherwise stamps every
+/// group and dataset with the wall clock, and the same checkpoint written twice would differ in bytes.
+Handle untimedCreation(hid_t propertyClass, const std::string& file) {
+  Handle plist(H5Pcreate(propertyClass), H5Pclose);
+  if (!plist.valid() || H5Pset_obj_track_times(plist.get(), 0) < 0) {
+    throw InputError(fmt::format("{}: cannot create an HDF5 property list", file));
+  }
+  return plist;
+}
+
+Handle createGroup(hid_t parent, const char* path, const std::string& file) {
+  const Handle gcpl = untimedCreation(H5P_GROUP_CREATE, file);
+  Handle group(H5Gcreate2(parent, path, H5P_DEFAULT, gcpl.get(), H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) throw InputError(fmt::format("{}: cannot create checkpoint group {}", file, path));
+  return group;
+}
+
 void writeStringAttribute(hid_t object, const std::string& name, const std::string& value, const std::string& file) {
   Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
   H5Tset_size(type.get(), value.empty() ? 1 : value.size());
@@ -121,7 +138,8 @@ void writeDataset(hid_t group, const std::string& name, const std::vector<T>& va
   }
   const hsize_t n = values.size();
   Handle space(H5Screate_simple(1, &n, nullptr), H5Sclose);
-  Handle set(H5Dcreate2(group, name.c_str(), type, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
+  const Handle dcpl = untimedCreation(H5P_DATASET_CREATE, file);
+  Handle set(H5Dcreate2(group, name.c_str(), type, space.get(), H5P_DEFAULT, dcpl.get(), H5P_DEFAULT), H5Dclose);
   if (!set.valid() || (n > 0 && H5Dwrite(set.get(), type, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0)) {
     throw InputError(fmt::format("{}: cannot write checkpoint entry {}", file, name));
   }
@@ -177,21 +195,22 @@ void writeCheckpoint(const std::filesystem::path& file, const Checkpoint& checkp
   QuietErrors quiet;
   AtomicFile atomic(file);
   {
-    Handle h = hdf5::createInMemoryFile(atomic.temporary().string(), H5P_DEFAULT);
+    const Handle fcpl = untimedCreation(H5P_FILE_CREATE, name);
+    Handle h = hdf5::createInMemoryFile(atomic.temporary().string(), fcpl.get());
     if (!h.valid()) throw InputError(fmt::format("{}: cannot create the checkpoint file", name));
-    Handle root(H5Gcreate2(h.get(), "checkpoint", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+    Handle root = createGroup(h.get(), "checkpoint", name);
     writeStringAttribute(root.get(), "kind", checkpoint.kind, name);
     writeStringAttribute(root.get(), "format", std::to_string(kFormat), name);
     {
-      Handle g(H5Gcreate2(root.get(), "real", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      const Handle g = createGroup(root.get(), "real", name);
       for (const auto& [key, values] : checkpoint.real) writeDataset(g.get(), key, values, H5T_NATIVE_DOUBLE, name);
     }
     {
-      Handle g(H5Gcreate2(root.get(), "integer", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      const Handle g = createGroup(root.get(), "integer", name);
       for (const auto& [key, values] : checkpoint.integer) writeDataset(g.get(), key, values, H5T_NATIVE_INT64, name);
     }
     {
-      Handle g(H5Gcreate2(root.get(), "text", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+      const Handle g = createGroup(root.get(), "text", name);
       for (const auto& [key, value] : checkpoint.text) {
         if (key.empty()) throw ConfigError(fmt::format("{}: checkpoint text entry with an empty name", name));
         writeStringAttribute(g.get(), key, value, name);

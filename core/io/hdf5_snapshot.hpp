@@ -23,7 +23,7 @@
 // Built without HDF5 (POLYDEM_WITH_HDF5=OFF), readSnapshot() and writeSnapshot() throw ConfigError.
 #include <filesystem>
 
-#include "core/io/particle_file.hpp"
+#include "core/io/particle_data.hpp"
 
 namespace polydem::io {
 

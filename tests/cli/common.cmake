@@ -144,3 +144,8 @@ add_test(NAME cli_common_particle_files
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/common_particle_files.sh $<TARGET_FILE:polydem>
          WORKING_DIRECTORY ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_common_particle_files PROPERTIES TIMEOUT 120 LABELS "cli")
+# Restart from a snapshot of a frictional relax reads its angular velocities back (relax.cmake writes relax_small.toml).
+add_test(NAME cli_io_snapshot_restart
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/io_snapshot_restart.sh $<TARGET_FILE:polydem>
+         ${POLYDEM_CLI_WORK}/io_snapshot_restart)
+set_tests_properties(cli_io_snapshot_restart PROPERTIES TIMEOUT 300 LABELS "cli;relax")

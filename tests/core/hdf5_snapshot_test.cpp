@@ -1,4 +1,5 @@
 #include "core/io/hdf5_snapshot.hpp"
+#include "core/io/particle_file.hpp"  // readParticles, writeText: the snapshot beside the other formats
 
 #include "polydem/config.hpp"
 

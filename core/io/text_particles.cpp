@@ -1,12 +1,11 @@
-// Plain text particle files, see particle_file.hpp for the format.
+// Plain text particle files, see text_particles.hpp for the format.
 //
 // Numbers are parsed with std::from_chars: locale-independent and correctly rounded, so a file written
 // with %.17g reads back bit-exactly. Rejected design: iostream >> double, which depends on the global
 // locale and accepts trailing garbage ("1.5abc" reads as 1.5).
-#include "core/io/particle_file.hpp"
+#include "core/io/text_particles.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -20,7 +19,6 @@
 #include <fmt/format.h>
 
 #include "core/errors.hpp"
-#include "core/io/hdf5_snapshot.hpp"
 #include "core/io/safe_output.hpp"
 
 namespace polydem::io {
@@ -546,31 +544,6 @@ bool trivialIds(const std::vector<Index>& ids) {
 
 }  // namespace
 
-bool isHdf5Path(const std::filesystem::path& file) {
-  std::string ext = file.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".h5" || ext == ".hdf5";
-}
-
-void requireConsistentSizes(const ParticleData& data) {
-  const Eigen::Index n = data.radius.size();
-  if (data.position.cols() != n) {
-    throw ConfigError(fmt::format("particle data: position has {} columns but radius has {} entries",
-                                  data.position.cols(), n));
-  }
-  if (data.velocity && data.velocity->cols() != n) {
-    throw ConfigError(fmt::format("particle data: velocity has {} columns but radius has {} entries",
-                                  data.velocity->cols(), n));
-  }
-  if (data.angularVelocity && data.angularVelocity->cols() != n) {
-    throw ConfigError(fmt::format("particle data: angular velocity has {} columns but radius has {} entries",
-                                  data.angularVelocity->cols(), n));
-  }
-  if (static_cast<Eigen::Index>(data.id.size()) != n) {
-    throw ConfigError(fmt::format("particle data: id has {} entries but radius has {}", data.id.size(), n));
-  }
-}
-
 ParticleData readText(const std::filesystem::path& file, std::array<Boundary, 3> defaultBoundaries) {
   return TextReader(file, defaultBoundaries).read();
 }
@@ -634,19 +607,6 @@ void writeText(const std::filesystem::path& file, const ParticleData& data) {
   out.close();
   if (!out) throw InputError(fmt::format("{}: write failed: {}", name, std::strerror(errno)));
   atomic.commit();
-}
-
-ParticleData readParticles(const std::filesystem::path& file, std::array<Boundary, 3> defaultBoundaries) {
-  if (isHdf5Path(file)) return readSnapshot(file);
-  return readText(file, defaultBoundaries);
-}
-
-void writeParticles(const std::filesystem::path& file, const ParticleData& data) {
-  if (isHdf5Path(file)) {
-    writeSnapshot(file, data);
-  } else {
-    writeText(file, data);
-  }
 }
 
 }  // namespace polydem::io
