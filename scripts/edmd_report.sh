@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Event-driven hard spheres: collision rates and jamming runs of issue 6, written to docs/edmd_results.md
+# Event-driven hard spheres: collision rates and jamming runs of issue 6, written to docs/benchmarks/edmd_report.md
 # with the commands that made them. Not part of CI: the full set takes about an hour on one core.
 #
 #   scripts/edmd_report.sh [BUILD_DIR]        (default build/)
@@ -8,7 +8,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-$here/build}
 polydem=$build/apps/polydem
-out=$here/docs/edmd_results.md
+out=$here/docs/benchmarks/edmd_report.md
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 
