@@ -15,6 +15,8 @@
 //   paper     levels + trel + model (the three seed reproductions)
 //   full      every suite
 // Dense states come from event-driven compression when random sequential addition stalls (--dense).
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -27,8 +29,6 @@
 #include <sstream>
 #include <thread>
 
-#include <fmt/format.h>
-
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
@@ -36,12 +36,12 @@
 #include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
+#include "broadphase/morton_order.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
-#include "core/morton.hpp"
 #include "edmd/compression.hpp"
 #include "integrators/dem_simulation.hpp"
 #include "integrators/initial_velocities.hpp"
@@ -78,9 +78,8 @@ struct BenchScene {
 /// start-up, so that particles close in space are close in memory.
 void mortonSort(Configuration& c) {
   const Index n = static_cast<Index>(c.radius.size());
-  std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) keys[static_cast<std::size_t>(i)] = {mortonKey(c.position.col(i).data(), c.box, 21), i};
-  std::sort(keys.begin(), keys.end());
+  std::vector<std::pair<std::uint64_t, Index>> keys;
+  broadphase::mortonOrder(SphereView{c.position, c.radius}, c.box, keys);
   Eigen::Matrix3Xd position(3, n);
   Eigen::VectorXd radius(n);
   for (Index k = 0; k < n; ++k) {
@@ -248,9 +247,47 @@ std::string today() {
   return buf;
 }
 
-bool runGnuplot(const std::filesystem::path& script) {
-  const std::string cmd = fmt::format("gnuplot '{}' 2>/dev/null", script.string());
-  return std::system(cmd.c_str()) == 0;
+/// An output file of a suite, written under a temporary name beside its final one and renamed over it by
+/// commit() once complete, so an interrupted bench never leaves a truncated CSV or script (issue 15).
+class ReportFile {
+ public:
+  explicit ReportFile(const std::filesystem::path& final) : file_(final), stream_(file_.temporary()) {
+    if (!stream_) throw InputError(fmt::format("{}: cannot be written", final.string()));
+  }
+  std::ofstream& stream() { return stream_; }
+  void commit() {
+    stream_.close();
+    if (!stream_) throw InputError(fmt::format("{}: write failed", file_.final().string()));
+    file_.commit();
+  }
+
+ private:
+  io::AtomicFile file_;
+  std::ofstream stream_;
+};
+
+/// Run gnuplot on `script`, which sets its output to `png`; the plot is drawn into a temporary file (the
+/// script is run from a temporary copy that names it) and committed only when gnuplot succeeds.
+bool runGnuplot(const std::filesystem::path& script, const std::filesystem::path& png) {
+  std::ifstream in(script);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string body = text.str();
+  io::AtomicFile plot(png);
+  const std::string from = "set output '" + png.string() + "'";
+  const auto at = body.find(from);
+  if (at == std::string::npos) return false;
+  body.replace(at, from.size(), "set output '" + plot.temporary().string() + "'");
+  io::AtomicFile copy(script);  // never committed: removed when it goes out of scope
+  {
+    std::ofstream out(copy.temporary());
+    out << body;
+    if (!out) return false;
+  }
+  const std::string cmd = fmt::format("gnuplot '{}' 2>/dev/null", copy.temporary().string());
+  if (std::system(cmd.c_str()) != 0 || !std::filesystem::exists(plot.temporary())) return false;
+  plot.commit();
+  return true;
 }
 
 struct Timed {
@@ -372,7 +409,8 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const BenchScene& scene, const
 
 int runLevels(const BenchOptions& opt, std::string& markdown) {
   const std::filesystem::path dir = opt.out;
-  std::ofstream csv(dir / "levels.csv");
+  ReportFile csvFile(dir / "levels.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "distribution,omega,L,packing,m,us_per_particle,spread,slowdown,slowdown_model_ch21,slowdown_model_ch22,"
          "pair_tests_per_particle,cell_accesses_per_particle,model_pair_tests,model_cell_accesses,model_T_per_particle,"
          "cell_sizes\n";
@@ -408,8 +446,9 @@ int runLevels(const BenchOptions& opt, std::string& markdown) {
       levelsCase(opt, scene, kind, spec.omega, csv, markdown);
     }
   }
-  csv.close();
-  std::ofstream gp(dir / "levels.gp");
+  csvFile.commit();
+  ReportFile gpFile(dir / "levels.gp");
+  std::ofstream& gp = gpFile.stream();
   gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "levels.png").string()
      << "'\nset termoption noenhanced\nset logscale y\nset xlabel 'number of levels L'\nset ylabel 'slowdown factor'\n"
      << "set key top left\nset title 'HGrid slowdown against L, measured vs cost models'\nplot ";
@@ -421,8 +460,9 @@ int runLevels(const BenchOptions& opt, std::string& markdown) {
        << " title '" << series[k] << " model L(m+K)'";
   }
   gp << "\n";
-  gp.close();
-  markdown += runGnuplot(dir / "levels.gp") ? "\n![levels](levels.png)\n\n" : "\n(gnuplot not available: no plot)\n\n";
+  gpFile.commit();
+  markdown += runGnuplot(dir / "levels.gp", dir / "levels.png") ? "\n![levels](levels.png)\n\n"
+                                                                : "\n(gnuplot not available: no plot)\n\n";
   return 0;
 }
 
@@ -430,7 +470,8 @@ int runLevels(const BenchOptions& opt, std::string& markdown) {
 
 int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   const std::filesystem::path dir = opt.out;
-  std::ofstream csv(dir / "backends.csv");
+  ReportFile csvFile(dir / "backends.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "distribution,omega,packing,placement,backend,us_per_particle,spread,pairs,contacts,pair_tests_per_particle,"
          "cell_accesses_per_particle,bytes_per_particle,configuration\n";
   const Index count = opt.count > 0 ? opt.count : (quick ? 4000 : 100000);
@@ -449,7 +490,8 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   for (std::size_t k = 0; k < names.size(); ++k) markdown += " --- |";
   markdown += "\n";
   bool agree = true;
-  std::ofstream matrix(dir / "backends_matrix.dat");  // one row per system, one column per backend
+  ReportFile matrixFile(dir / "backends_matrix.dat");
+  std::ofstream& matrix = matrixFile.stream();  // one row per system, one column per backend
   matrix << "system";
   int plotted = 0;
   for (const auto& n : names) {
@@ -515,17 +557,19 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
       matrix << "\n";
     }
   }
-  csv.close();
-  matrix.close();
-  std::ofstream gp(dir / "backends.gp");
+  csvFile.commit();
+  matrixFile.commit();
+  ReportFile gpFile(dir / "backends.gp");
+  std::ofstream& gp = gpFile.stream();
   gp << "set terminal png size 1200,650\nset output '" << (dir / "backends.png").string() << "'\n"
      << "set termoption noenhanced\nset style data histograms\nset style histogram clustered gap 1\nset style fill solid 0.8 border -1\n"
      << "set logscale y\nset ylabel 'microseconds per particle (build + findPairs)'\nset xtics rotate by -30\n"
      << "set key outside right\nset title 'Broad phases side by side (N = " << count << ")'\n"
      << "plot for [col=2:" << plotted + 1 << "] '" << (dir / "backends_matrix.dat").string()
      << "' using col:xtic(1) title columnheader\n";
-  gp.close();
-  markdown += runGnuplot(dir / "backends.gp") ? "![backends](backends.png)\n\n" : "(gnuplot failed: no plot)\n\n";
+  gpFile.commit();
+  markdown += runGnuplot(dir / "backends.gp", dir / "backends.png") ? "![backends](backends.png)\n\n"
+                                                                    : "(gnuplot failed: no plot)\n\n";
   markdown += fmt::format("\nAll backends report the same pair counts: {}\n\n", agree ? "yes" : "**NO**");
   return agree ? 0 : 1;
 }
@@ -549,7 +593,8 @@ std::unique_ptr<broadphase::BroadPhase> gridWith(broadphase::CrossLevel mode, st
 
 int runOptimiser(const BenchOptions& opt, std::string& markdown) {
   const std::filesystem::path dir = opt.out;
-  std::ofstream csv(dir / "optimiser.csv");
+  ReportFile csvFile(dir / "optimiser.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "distribution,omega,alpha,packing,mode,L,us_per_particle,model_T_per_particle,is_optimiser_choice\n";
   const Index count = opt.count > 0 ? opt.count : 100000;
   const double packing = opt.packing > 0 ? opt.packing : 0.4;
@@ -636,6 +681,7 @@ int runOptimiser(const BenchOptions& opt, std::string& markdown) {
     fmt::print("  {}: optimiser {} {:.4f} us, fastest {} {:.4f} us, ratio {:.2f}\n", scene.label, choice,
                1e6 * a.seconds / count, bestName, 1e6 * best / count, a.seconds / best);
   }
+  csvFile.commit();
   markdown += "\n";
   return 0;
 }
@@ -644,7 +690,8 @@ int runOptimiser(const BenchOptions& opt, std::string& markdown) {
 
 int runScaling(const BenchOptions& opt, std::string& markdown) {
   const std::filesystem::path dir = opt.out;
-  std::ofstream csv(dir / "scaling.csv");
+  ReportFile csvFile(dir / "scaling.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "series,distribution,omega,N,packing,backend,us_per_particle,spread,bytes_per_particle,ratio_to_mono_linked_cell\n";
   const double packing = opt.packing > 0 ? opt.packing : 0.4;
   const std::vector<Index> sizes = opt.count > 0 ? std::vector<Index>{opt.count}
@@ -706,6 +753,7 @@ int runScaling(const BenchOptions& opt, std::string& markdown) {
     fmt::print("  omega = {}: UV auto {:.4f} us, ratio to mono LC {:.2f}\n", omega, 1e6 * tp.seconds / n,
                tp.seconds / tm.seconds);
   }
+  csvFile.commit();
   markdown += "\n";
   return 0;
 }
@@ -756,7 +804,8 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
                                        {"bi", 10.0, "auto"},
                                        {"uniform-volume", 10.0, "auto"},
                                        {"uniform-volume", 50.0, "auto"}};
-  std::ofstream csv(dir / "trel.csv");
+  ReportFile csvFile(dir / "trel.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "system,N,packing,placement,backend,broad_phase_choice,steps,us_per_particle_step,spread,t_rel,"
          "broad_phase_share,force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle\n";
   markdown += fmt::format(
@@ -834,7 +883,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
       trel[c.label].push_back({n, t / mono});
     }
   }
-  csv.close();
+  csvFile.commit();
   markdown += "\n| system | T_rel over N | max / min over N |\n| --- | --- | --- |\n";
   for (const auto& [label, values] : trel) {
     std::string list;
@@ -846,7 +895,8 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
     }
     markdown += fmt::format("| {} | {} | {:.2f} |\n", label, list, hi / lo);
   }
-  std::ofstream gp(dir / "trel.gp");
+  ReportFile gpFile(dir / "trel.gp");
+  std::ofstream& gp = gpFile.stream();
   gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "trel.png").string()
      << "'\nset termoption noenhanced\nset logscale x\nset xlabel 'N'\nset ylabel 'T_rel = T / T(mono, linked cell)'\n"
      << "set key top left\nset yrange [0:*]\nset title 'DEM time relative to monodisperse (seed Fig. 2.6), packing "
@@ -858,8 +908,9 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
     ++k;
   }
   gp << "\n";
-  gp.close();
-  markdown += runGnuplot(dir / "trel.gp") ? "\n![trel](trel.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  gpFile.commit();
+  markdown +=
+      runGnuplot(dir / "trel.gp", dir / "trel.png") ? "\n![trel](trel.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
   return 0;
 }
 
@@ -872,7 +923,8 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
   const std::vector<double> alphas = quick ? std::vector<double>{0.0, -3.0} : std::vector<double>{0.0, -1.0, -2.0, -3.0};
   const std::vector<double> omegas = quick ? std::vector<double>{10.0} : std::vector<double>{10.0, 100.0};
   const double K = broadphase::modelCostRatio();
-  std::ofstream csv(dir / "model.csv");
+  ReportFile csvFile(dir / "model.csv");
+  std::ofstream& csv = csvFile.stream();
   csv << "alpha,omega,N,packing,placement,method,L,model_T_per_particle,model_pair_tests,model_cell_accesses,"
          "counted_pair_tests,counted_cell_accesses,counted_T_per_particle,us_per_particle,spread,cell_sizes\n";
   markdown += fmt::format(
@@ -979,10 +1031,11 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
       }
     }
   }
-  csv.close();
+  csvFile.commit();
   // Predicted work against measured time: one point per (distribution, method); a line through the origin
   // would mean time proportional to the model's work.
-  std::ofstream gp(dir / "model.gp");
+  ReportFile gpFile(dir / "model.gp");
+  std::ofstream& gp = gpFile.stream();
   gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "model.png").string()
      << "'\nset termoption noenhanced\nset logscale xy\nset xlabel 'model T/N (pair tests + K cell accesses)'\n"
      << "set ylabel 'measured us per particle'\nset key top left\n"
@@ -993,8 +1046,9 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
        << "' ? $8 : 1/0):14 with points pt " << 5 + 2 * k << " ps 1.5 title '" << methodsList[k] << "'";
   }
   gp << "\n";
-  gp.close();
-  markdown += runGnuplot(dir / "model.gp") ? "\n![model](model.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  gpFile.commit();
+  markdown +=
+      runGnuplot(dir / "model.gp", dir / "model.png") ? "\n![model](model.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
   return 0;
 }
 
