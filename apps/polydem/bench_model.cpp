@@ -3,6 +3,31 @@
 
 namespace polydem::app::bench {
 
+namespace {
+
+/// model.gp and model.png: predicted work against measured time; the Markdown line for the plot.
+std::string plotModel(const std::filesystem::path& dir) {
+  // Predicted work against measured time: one point per (distribution, method); a line through the origin
+  // would mean time proportional to the model's work.
+  ReportFile gpFile(dir / "model.gp");
+  std::ofstream& gp = gpFile.stream();
+  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "model.png").string()
+     << "'\nset termoption noenhanced\nset logscale xy\nset xlabel 'model T/N (pair tests + K cell accesses)'\n"
+     << "set ylabel 'measured us per particle'\nset key top left\n"
+     << "set title 'Cost model vs measurement, power laws (seed 000 2.2.5)'\nplot ";
+  const char* methodsList[] = {"top-down optimal", "bottom-up optimal", "top-down constant m", "linked cell"};
+  for (int k = 0; k < 4; ++k) {
+    gp << (k ? ", " : "") << "'" << (dir / "model.csv").string() << "' using (strcol(6) eq '" << methodsList[k]
+       << "' ? $8 : 1/0):14 with points pt " << 5 + 2 * k << " ps 1.5 title '" << methodsList[k] << "'";
+  }
+  gp << "\n";
+  gpFile.commit();
+  return runGnuplot(dir / "model.gp", dir / "model.png") ? "\n![model](model.png)\n\n"
+                                                         : "\n(gnuplot failed: no plot)\n\n";
+}
+
+}  // namespace
+
 int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
   const std::filesystem::path dir = opt.out;
   const Index count = opt.count > 0 ? opt.count : (quick ? 5000 : 100000);
@@ -123,23 +148,7 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
     }
   }
   csvFile.commit();
-  // Predicted work against measured time: one point per (distribution, method); a line through the origin
-  // would mean time proportional to the model's work.
-  ReportFile gpFile(dir / "model.gp");
-  std::ofstream& gp = gpFile.stream();
-  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "model.png").string()
-     << "'\nset termoption noenhanced\nset logscale xy\nset xlabel 'model T/N (pair tests + K cell accesses)'\n"
-     << "set ylabel 'measured us per particle'\nset key top left\n"
-     << "set title 'Cost model vs measurement, power laws (seed 000 2.2.5)'\nplot ";
-  const char* methodsList[] = {"top-down optimal", "bottom-up optimal", "top-down constant m", "linked cell"};
-  for (int k = 0; k < 4; ++k) {
-    gp << (k ? ", " : "") << "'" << (dir / "model.csv").string() << "' using (strcol(6) eq '" << methodsList[k]
-       << "' ? $8 : 1/0):14 with points pt " << 5 + 2 * k << " ps 1.5 title '" << methodsList[k] << "'";
-  }
-  gp << "\n";
-  gpFile.commit();
-  markdown +=
-      runGnuplot(dir / "model.gp", dir / "model.png") ? "\n![model](model.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  markdown += plotModel(dir);
   return 0;
 }
 

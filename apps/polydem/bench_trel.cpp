@@ -35,6 +35,30 @@ std::unique_ptr<integrators::DemSimulation> demOn(const BenchScene& scene, const
 
 }  // namespace
 
+namespace {
+
+/// trel.gp and trel.png: T_rel against N per system; the Markdown line for the plot.
+std::string plotRelativeTime(const std::filesystem::path& dir, double packing,
+                             const std::map<std::string, std::vector<std::pair<Index, double>>>& trel) {
+  ReportFile gpFile(dir / "trel.gp");
+  std::ofstream& gp = gpFile.stream();
+  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "trel.png").string()
+     << "'\nset termoption noenhanced\nset logscale x\nset xlabel 'N'\nset ylabel 'T_rel = T / T(mono, linked cell)'\n"
+     << "set key top left\nset yrange [0:*]\nset title 'DEM time relative to monodisperse (seed Fig. 2.6), packing "
+     << packing << "'\nplot ";
+  int k = 0;
+  for (const auto& [label, values] : trel) {
+    gp << (k ? ", " : "") << "'" << (dir / "trel.csv").string() << "' using (strcol(1) eq '" << label
+       << "' ? $2 : 1/0):10 with linespoints lw 2 title '" << label << "'";
+    ++k;
+  }
+  gp << "\n";
+  gpFile.commit();
+  return runGnuplot(dir / "trel.gp", dir / "trel.png") ? "\n![trel](trel.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+}
+
+}  // namespace
+
 int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) {
   const std::filesystem::path dir = opt.out;
   const double packing = opt.packing > 0 ? opt.packing : (quick ? 0.5 : 0.6);
@@ -145,22 +169,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
     }
     markdown += fmt::format("| {} | {} | {:.2f} |\n", label, list, hi / lo);
   }
-  ReportFile gpFile(dir / "trel.gp");
-  std::ofstream& gp = gpFile.stream();
-  gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "trel.png").string()
-     << "'\nset termoption noenhanced\nset logscale x\nset xlabel 'N'\nset ylabel 'T_rel = T / T(mono, linked cell)'\n"
-     << "set key top left\nset yrange [0:*]\nset title 'DEM time relative to monodisperse (seed Fig. 2.6), packing "
-     << packing << "'\nplot ";
-  int k = 0;
-  for (const auto& [label, values] : trel) {
-    gp << (k ? ", " : "") << "'" << (dir / "trel.csv").string() << "' using (strcol(1) eq '" << label
-       << "' ? $2 : 1/0):10 with linespoints lw 2 title '" << label << "'";
-    ++k;
-  }
-  gp << "\n";
-  gpFile.commit();
-  markdown +=
-      runGnuplot(dir / "trel.gp", dir / "trel.png") ? "\n![trel](trel.png)\n\n" : "\n(gnuplot failed: no plot)\n\n";
+  markdown += plotRelativeTime(dir, packing, trel);
   return 0;
 }
 
