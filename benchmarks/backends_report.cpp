@@ -32,10 +32,10 @@
 
 #include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
+#include "broadphase/morton_order.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/io/particle_file.hpp"
-#include "core/morton.hpp"
 
 namespace {
 
@@ -65,9 +65,8 @@ struct Sample {
 
 void mortonSort(io::ParticleData& d) {
   const Index n = d.count();
-  std::vector<std::pair<std::uint64_t, Index>> keys(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) keys[static_cast<std::size_t>(i)] = {mortonKey(d.position.col(i).data(), d.box, 21), i};
-  std::sort(keys.begin(), keys.end());
+  std::vector<std::pair<std::uint64_t, Index>> keys;
+  broadphase::mortonOrder(SphereView{d.position, d.radius}, d.box, keys);
   Eigen::Matrix3Xd x(3, n);
   Eigen::VectorXd r(n);
   for (Index k = 0; k < n; ++k) {

@@ -244,4 +244,24 @@ Configuration randomOverlapping(const PackingRequest& request) {
   return config;
 }
 
+StartPacking makeStartPacking(const SizeDistribution& distribution, const StartPackingRequest& request) {
+  PackingRequest packing;
+  packing.radii =
+      request.radii.empty() ? distribution.sample(request.count, request.sampling, request.seed) : request.radii;
+  std::mt19937_64 rng(request.seed ^ kStartShuffleSalt);
+  std::shuffle(packing.radii.begin(), packing.radii.end(), rng);
+  packing.packingFraction = request.packingFraction;
+  packing.aspect = request.aspect;
+  packing.boundaries = request.boundaries;
+  packing.seed = request.seed;
+  StartPacking out;
+  out.configuration = request.placement == Placement::RandomSequentialAddition ? randomSequentialAddition(packing)
+                                                                               : randomOverlapping(packing);
+  const Index n = static_cast<Index>(out.configuration.radius.size());
+  out.id.resize(static_cast<std::size_t>(n));
+  std::iota(out.id.begin(), out.id.end(), Index(0));
+  out.distribution = distribution.describe();
+  return out;
+}
+
 }  // namespace polydem

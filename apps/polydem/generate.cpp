@@ -1,10 +1,10 @@
 // polydem generate: sample a size distribution, place the spheres, write a particle file.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <random>
-
-#include <fmt/format.h>
+#include <span>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
@@ -32,6 +32,82 @@ struct GenerateOptions {
   std::string output;
   std::string equivalent = "none";
 };
+
+/// The spheres made by `generate` and what the report needs about them.
+struct Generated {
+  io::ParticleData data;
+  std::string distribution;           ///< the distribution's describe()
+  std::string equivalentDescription;  ///< the equivalent mixture's radii ("" without --equivalent)
+  double seconds = 0.0;               ///< sampling and placement
+};
+
+/// Check the options and the output paths before any work.
+void checkGenerateOptions(GenerateOptions& opt) {
+  finishDistributionSpec(opt.dist, opt.fractionKind);
+  if (opt.count < 1) throw ConfigError(fmt::format("--count must be >= 1, got {}", opt.count));
+  io::checkOutputPath(opt.output, "--output");
+  if (io::isHdf5Path(opt.output)) io::checkOutputPath(io::xdmfPath(opt.output), "--output (its XDMF sidecar)");
+}
+
+/// Sample the radii, place the spheres, attach the attributes the file records.
+Generated computeGenerate(const GenerateOptions& opt, const SizeDistribution& dist) {
+  Generated g;
+  Stopwatch clock;
+  StartPackingRequest request;
+  request.count = opt.count;
+  request.sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
+  if (opt.equivalent != "none")
+    request.radii = equivalentRadii(dist, opt.equivalent, opt.count, g.equivalentDescription);
+  request.packingFraction = opt.packing;
+  request.aspect = Eigen::Vector3d(opt.aspect[0], opt.aspect[1], opt.aspect[2]);
+  request.boundaries = parseBoundaries(opt.boundaries);
+  request.seed = opt.seed;
+  request.placement = opt.placement == "rsa" ? Placement::RandomSequentialAddition : Placement::RandomOverlapping;
+  StartPacking start = makeStartPacking(dist, request);
+  g.seconds = clock.seconds();
+  g.distribution = start.distribution;
+  g.data.box = start.configuration.box;
+  g.data.position = std::move(start.configuration.position);
+  g.data.radius = std::move(start.configuration.radius);
+  g.data.id = std::move(start.id);
+  g.data.attributes["distribution"] = start.distribution;
+  g.data.attributes["sampling"] = opt.sampling;
+  if (opt.equivalent != "none") g.data.attributes["equivalent_mixture"] = g.equivalentDescription;
+  g.data.attributes["placement"] = opt.placement;
+  g.data.attributes["seed"] = std::to_string(opt.seed);
+  g.data.attributes["packing_fraction"] = fmt::format("{:.17g}", opt.packing);
+  return g;
+}
+
+/// The summary on stdout: box, realised size ratio, sample moments against the analytic ones.
+void reportGenerate(const GenerateOptions& opt, const SizeDistribution& dist, const Generated& g) {
+  const Eigen::VectorXd& radius = g.data.radius;
+  const auto sample = sampleMoments(std::span<const double>(radius.data(), static_cast<std::size_t>(radius.size())));
+  fmt::print("generated {} particles: {}\n", opt.count, g.distribution);
+  if (opt.equivalent != "none") fmt::print("radii: {}\n", g.equivalentDescription);
+  fmt::print("box: {}  packing fraction {:.6f}  placement {} ({} sampling)\n", g.data.box.describe(), opt.packing,
+             opt.placement, opt.sampling);
+  if (opt.count > 0) {
+    fmt::print("radii: min {:.6g}  max {:.6g}  realised size ratio {:.6g}\n", radius.minCoeff(), radius.maxCoeff(),
+               radius.maxCoeff() / radius.minCoeff());
+    fmt::print("moments <r^k>   k:   analytic        sample\n");
+    for (int k = 1; k <= 5; ++k) {
+      fmt::print("               {}:  {:13.6g}  {:13.6g}\n", k, dist.moment(k), sample[k] / sample[0]);
+    }
+  }
+}
+
+/// `polydem generate`: check, compute, write the file, report.
+int runGenerate(GenerateOptions& opt) {
+  checkGenerateOptions(opt);
+  const auto dist = makeDistribution(opt.dist);
+  const Generated g = computeGenerate(opt, *dist);
+  io::writeParticles(opt.output, g.data);
+  reportGenerate(opt, *dist, g);
+  fmt::print("wrote {} in {:.3f} s\n", opt.output, g.seconds);
+  return 0;
+}
+
 }  // namespace
 
 Runner addGenerate(CLI::App& app) {
@@ -67,61 +143,7 @@ Runner addGenerate(CLI::App& app) {
   cmd->add_option("-o,--output", opt->output, "output file: .h5/.hdf5 for HDF5 (+ .xmf sidecar), else plain text")
       ->required();
 
-  return [opt]() {
-    finishDistributionSpec(opt->dist, opt->fractionKind);
-    if (opt->count < 1) throw ConfigError(fmt::format("--count must be >= 1, got {}", opt->count));
-    io::checkOutputPath(opt->output, "--output");
-    if (io::isHdf5Path(opt->output)) io::checkOutputPath(io::xdmfPath(opt->output), "--output (its XDMF sidecar)");
-    const auto dist = makeDistribution(opt->dist);
-    Stopwatch clock;
-    const Sampling sampling = opt->sampling == "random" ? Sampling::Random : Sampling::Systematic;
-    std::string equivalentDescription;
-    std::vector<double> radii = opt->equivalent == "none"
-                                    ? dist->sample(opt->count, sampling, opt->seed)
-                                    : equivalentRadii(*dist, opt->equivalent, opt->count, equivalentDescription);
-    std::mt19937_64 rng(opt->seed ^ 0x9e3779b97f4a7c15ULL);
-    std::shuffle(radii.begin(), radii.end(), rng);
-
-    PackingRequest request;
-    request.radii = radii;
-    request.packingFraction = opt->packing;
-    request.aspect = Eigen::Vector3d(opt->aspect[0], opt->aspect[1], opt->aspect[2]);
-    request.boundaries = parseBoundaries(opt->boundaries);
-    request.seed = opt->seed;
-    const Configuration config =
-        opt->placement == "rsa" ? randomSequentialAddition(request) : randomOverlapping(request);
-    const double seconds = clock.seconds();
-
-    io::ParticleData data;
-    data.box = config.box;
-    data.position = config.position;
-    data.radius = config.radius;
-    data.id.resize(static_cast<std::size_t>(opt->count));
-    for (Index i = 0; i < opt->count; ++i) data.id[i] = i;
-    data.attributes["distribution"] = dist->describe();
-    data.attributes["sampling"] = opt->sampling;
-    if (opt->equivalent != "none") data.attributes["equivalent_mixture"] = equivalentDescription;
-    data.attributes["placement"] = opt->placement;
-    data.attributes["seed"] = std::to_string(opt->seed);
-    data.attributes["packing_fraction"] = fmt::format("{:.17g}", opt->packing);
-    io::writeParticles(opt->output, data);
-
-    const auto sample = sampleMoments(radii);
-    fmt::print("generated {} particles: {}\n", opt->count, dist->describe());
-    if (opt->equivalent != "none") fmt::print("radii: {}\n", equivalentDescription);
-    fmt::print("box: {}  packing fraction {:.6f}  placement {} ({} sampling)\n", config.box.describe(), opt->packing,
-               opt->placement, opt->sampling);
-    if (opt->count > 0) {
-      fmt::print("radii: min {:.6g}  max {:.6g}  realised size ratio {:.6g}\n", config.radius.minCoeff(),
-                 config.radius.maxCoeff(), config.radius.maxCoeff() / config.radius.minCoeff());
-      fmt::print("moments <r^k>   k:   analytic        sample\n");
-      for (int k = 1; k <= 5; ++k) {
-        fmt::print("               {}:  {:13.6g}  {:13.6g}\n", k, dist->moment(k), sample[k] / sample[0]);
-      }
-    }
-    fmt::print("wrote {} in {:.3f} s\n", opt->output, seconds);
-    return 0;
-  };
+  return [opt]() { return runGenerate(*opt); };
 }
 
 }  // namespace polydem::app

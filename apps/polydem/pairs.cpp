@@ -25,6 +25,7 @@ struct PairsOptions {
   std::string boundaries = "periodic";
   int levels = 0;
   std::vector<double> cellSizes;
+  bool boundaryGiven = false;  ///< --boundary was on the command line (not only its default)
 };
 
 /// hgrid-td / hgrid-bu with hand-set levels: --cell-sizes as given, or --levels alone with the cost
@@ -69,6 +70,34 @@ std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, con
   grid->setConfig(config);
   return grid;
 }
+
+/// The particle file, its boundaries checked against an explicit --boundary.
+io::ParticleData loadPairsInput(const PairsOptions& opt) {
+  const std::array<Boundary, 3> boundaries = parseBoundaries(opt.boundaries);
+  io::ParticleData data = io::readParticles(opt.file, boundaries);
+  // --boundary is the default for text files without their own: never silently overridden by the file.
+  const bool differ = data.box.boundary(0) != boundaries[0] || data.box.boundary(1) != boundaries[1] ||
+                      data.box.boundary(2) != boundaries[2];
+  if (opt.boundaryGiven && differ) {
+    throw ConfigError(
+        fmt::format("--boundary {} conflicts with the boundaries stored in {} ({}): drop --boundary "
+                    "or edit the file",
+                    opt.boundaries, opt.file, data.box.describe()));
+  }
+  return data;
+}
+
+/// `polydem pairs`: load the file, measure the backend on it, report.
+int runPairs(const PairsOptions& opt) {
+  if (opt.repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt.repeat));
+  const io::ParticleData data = loadPairsInput(opt);
+  fmt::print("file: {} ({} particles, box {})\n", opt.file, data.count(), data.box.describe());
+  const SphereView spheres{data.position, data.radius};
+  auto backend = makeBackend(opt, spheres, data.box);
+  const PairReport r = measurePairs(*backend, spheres, data.box, opt.skin, opt.repeat);
+  printPairReport(r, data.count());
+  return 0;
+}
 }  // namespace
 
 Runner addPairs(CLI::App& app) {
@@ -94,23 +123,8 @@ Runner addPairs(CLI::App& app) {
       ->delimiter(',')
       ->check(finitePositive());
   return [opt, cmd]() {
-    if (opt->repeat < 1) throw ConfigError(fmt::format("--repeat must be >= 1, got {}", opt->repeat));
-    const std::array<Boundary, 3> boundaries = parseBoundaries(opt->boundaries);
-    const io::ParticleData data = io::readParticles(opt->file, boundaries);
-    // --boundary is the default for text files without their own: never silently overridden by the file.
-    const bool differ = data.box.boundary(0) != boundaries[0] || data.box.boundary(1) != boundaries[1] ||
-                        data.box.boundary(2) != boundaries[2];
-    if (cmd->count("--boundary") > 0 && differ) {
-      throw ConfigError(fmt::format("--boundary {} conflicts with the boundaries stored in {} ({}): drop --boundary "
-                                    "or edit the file",
-                                    opt->boundaries, opt->file, data.box.describe()));
-    }
-    fmt::print("file: {} ({} particles, box {})\n", opt->file, data.count(), data.box.describe());
-    const SphereView spheres{data.position, data.radius};
-    auto backend = makeBackend(*opt, spheres, data.box);
-    const PairReport r = measurePairs(*backend, spheres, data.box, opt->skin, opt->repeat);
-    printPairReport(r, data.count());
-    return 0;
+    opt->boundaryGiven = cmd->count("--boundary") > 0;
+    return runPairs(*opt);
   };
 }
 

@@ -63,23 +63,21 @@ Start prepare(const RelaxScene& scene) {
     s.attributes.erase("target_not_reached");  // a mark of the run that wrote the file, not of this one
   } else {
     const auto dist = makeDistribution(scene.distribution);
-    PackingRequest request;
-    request.radii =
-        dist->sample(scene.count, scene.sampling == "random" ? Sampling::Random : Sampling::Systematic, scene.seed);
-    std::mt19937_64 rng(scene.seed ^ 0x9e3779b97f4a7c15ULL);
-    std::shuffle(request.radii.begin(), request.radii.end(), rng);
     const double target =
         scene.compression ? scene.compression->startPacking(scene.packingFraction) : scene.packingFraction;
+    StartPackingRequest request;
+    request.count = scene.count;
+    request.sampling = scene.sampling == "random" ? Sampling::Random : Sampling::Systematic;
     request.packingFraction = target;
     request.aspect = scene.aspect;
     request.boundaries = scene.boundaries;
     request.seed = scene.seed;
     Stopwatch clock;
-    const Configuration config = randomSequentialAddition(request);
-    s.box = config.box;
+    StartPacking start = makeStartPacking(*dist, request);
+    s.box = start.configuration.box;
     s.particles = ParticleStore(scene.count, Features{.rotation = rotation});
-    s.particles.position() = config.position;
-    s.particles.radius() = config.radius;
+    s.particles.position() = start.configuration.position;
+    s.particles.radius() = start.configuration.radius;
     s.origin = fmt::format("{} by random sequential addition at packing fraction {:g} ({:.2f} s)", dist->describe(),
                            target, clock.seconds());
     s.attributes["distribution"] = dist->describe();

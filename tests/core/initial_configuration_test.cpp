@@ -189,5 +189,56 @@ TEST(RandomOverlapping, SameBoxAsRsaAndCentresInside) {
   EXPECT_GT(overlappingPairs(c), 0);
 }
 
+/// The recipe makeStartPacking replaces in generate, jam and relax: sample, shuffle with the salted seed,
+/// place. The shared function must give exactly this (bit for bit), so their files stay the same.
+Configuration handMadeStart(std::vector<double> radii, double packing, std::uint64_t seed, bool rsa) {
+  std::mt19937_64 rng(seed ^ 0x9e3779b97f4a7c15ULL);
+  std::shuffle(radii.begin(), radii.end(), rng);
+  PackingRequest request;
+  request.radii = radii;
+  request.packingFraction = packing;
+  request.boundaries = kMixed;
+  request.seed = seed;
+  return rsa ? randomSequentialAddition(request) : randomOverlapping(request);
+}
+
+void expectSame(const Configuration& a, const Configuration& b) {
+  ASSERT_EQ(a.radius.size(), b.radius.size());
+  EXPECT_EQ(a.box.lengths(), b.box.lengths());
+  EXPECT_TRUE((a.radius.array() == b.radius.array()).all());
+  EXPECT_TRUE((a.position.array() == b.position.array()).all());
+}
+
+TEST(StartPacking, SampledShuffledAndPlacedLikeTheHandMadeRecipe) {
+  const auto dist = makeDistribution({.kind = "uv", .rmin = 1.0, .omega = 8.0});
+  StartPackingRequest request;
+  request.count = 400;
+  request.sampling = Sampling::Random;
+  request.packingFraction = 0.2;
+  request.boundaries = kMixed;
+  request.seed = 7;
+  const StartPacking start = makeStartPacking(*dist, request);
+  expectSame(start.configuration, handMadeStart(dist->sample(400, Sampling::Random, 7), 0.2, 7, true));
+  EXPECT_EQ(overlappingPairs(start.configuration), 0);
+  ASSERT_EQ(start.id.size(), 400u);
+  for (std::size_t i = 0; i < start.id.size(); ++i) ASSERT_EQ(start.id[i], static_cast<Index>(i));
+  EXPECT_EQ(start.distribution, dist->describe());
+  // The radii are shuffled, not left in the sample's sorted order.
+  EXPECT_FALSE(std::is_sorted(start.configuration.radius.begin(), start.configuration.radius.end()));
+}
+
+TEST(StartPacking, GivenRadiiAndOverlappingPlacement) {
+  const auto dist = makeDistribution({.kind = "mono", .rmin = 1.0});
+  StartPackingRequest request;
+  request.radii = {1.0, 2.0, 3.0, 1.5, 2.5, 0.5, 1.0, 2.0};  // e.g. an equivalent mixture
+  request.packingFraction = 0.5;
+  request.boundaries = kMixed;
+  request.seed = 11;
+  request.placement = Placement::RandomOverlapping;
+  const StartPacking start = makeStartPacking(*dist, request);
+  expectSame(start.configuration, handMadeStart(request.radii, 0.5, 11, false));
+  EXPECT_EQ(start.id.size(), request.radii.size());
+}
+
 }  // namespace
 }  // namespace polydem
