@@ -312,6 +312,7 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
   timeStep_ = state.timeStep;
   dt_ = timeStep_.dt;
   step_ = state.step;
+  timeOrigin_ = state.timeOrigin;
   initialEnergy_ = state.initialEnergy;
   velocityPredicted_ = particles_.velocity();
   if (kernel_.rotation) angularVelocityPredicted_ = particles_.angularVelocity();
@@ -339,6 +340,7 @@ DemState DemSimulation::state() const {
   DemState s;
   s.box = box_;
   s.step = step_;
+  s.timeOrigin = timeOrigin_;
   s.timeStep = timeStep_;
   s.skin = verlet_.skin();
   s.initialEnergy = initialEnergy_;

@@ -90,6 +90,7 @@ struct Energies {
 struct DemState {
   Box box;
   std::int64_t step = 0;
+  double timeOrigin = 0.0;        ///< simulated time at step 0 (s): the start file's time
   TimeStepChoice timeStep;        ///< dt and the pair that set it
   double skin = 0.0;              ///< resolved Verlet skin (m)
   double initialEnergy = 0.0;     ///< reference of the energy check
@@ -137,7 +138,10 @@ class DemSimulation {
   double packingFraction() const;
 
   std::int64_t step() const { return step_; }
-  double time() const { return static_cast<double>(step_) * dt_; }
+  /// Simulated time (s): the time origin (0, or the start file's time) plus step x dt.
+  double time() const { return timeOrigin_ + static_cast<double>(step_) * dt_; }
+  /// Start the clock at `t` (s), e.g. the time of the snapshot a run continues from.
+  void setTimeOrigin(double t) { timeOrigin_ = t; }
   double dt() const { return dt_; }
   const TimeStepChoice& timeStepChoice() const { return timeStep_; }
   const ParticleStore& particles() const { return particles_; }
@@ -202,6 +206,7 @@ class DemSimulation {
   bool conservative_ = false;
   double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)
   std::int64_t step_ = 0;
+  double timeOrigin_ = 0.0;
   double initialEnergy_ = 0.0;
   PhaseTimes times_;
 };

@@ -156,8 +156,10 @@ int runFromStart(const RelaxScene& scene, Start start, RunContext& context,
   const integrators::DemSettings settings = runSettings(scene);
   RelaxScene running = scene;
   running.dem = settings;
-  return exitCode(runScene(running, integrators::DemSimulation(std::move(start.particles), start.box, settings),
-                           context, RunMode{.quiet = quiet}));
+  integrators::DemSimulation sim(std::move(start.particles), start.box, settings);
+  // Continuing a run from its snapshot (velocities from the file): the clock continues too.
+  if (scene.initialVelocities == "file") sim.setTimeOrigin(start.fileTime);
+  return exitCode(runScene(running, std::move(sim), context, RunMode{.quiet = quiet}));
 }
 
 /// Continue the run saved in `run.checkpoint`: the time loop (phase "run") or the soft compression.

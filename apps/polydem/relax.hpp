@@ -32,6 +32,7 @@ struct Start {
   std::optional<std::string> targetNotReached;  ///< the soft compression stopped before its target: why
   bool interrupted = false;                     ///< SIGINT/SIGTERM during the soft compression
   std::optional<Eigen::Matrix3Xd> fileVelocity, fileAngularVelocity;  ///< from the particle file
+  double fileTime = 0.0;                                              ///< the particle file's time (s)
 };
 
 /// What a resumed run needs besides the simulation state: the scene (as given: file text and overrides,

@@ -76,6 +76,7 @@ io::Checkpoint makeCheckpoint(const integrators::DemSimulation& sim, const RunCo
   c.real["box_lengths"] = {st.box.length(0), st.box.length(1), st.box.length(2)};
   c.integer["box_periodic"] = {st.box.periodic(0), st.box.periodic(1), st.box.periodic(2)};
   c.putInteger("step", st.step);
+  c.putScalar("time_origin", st.timeOrigin);
   c.putInteger("builds", st.builds);
   c.putScalar("skin", st.skin);
   c.putScalar("initial_energy", st.initialEnergy);
@@ -118,6 +119,7 @@ integrators::DemState stateFrom(const io::Checkpoint& c) {
   for (std::size_t k = 0; k < 3; ++k) b[k] = periodic[k] ? Boundary::Periodic : Boundary::Wall;
   st.box = Box(Eigen::Vector3d(L[0], L[1], L[2]), b);
   st.step = c.integerScalar("step");
+  st.timeOrigin = c.has("time_origin") ? c.scalar("time_origin") : 0.0;
   st.builds = c.integerScalar("builds");
   st.skin = c.scalar("skin");
   st.initialEnergy = c.scalar("initial_energy");

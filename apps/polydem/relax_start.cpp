@@ -58,6 +58,7 @@ Start prepare(const RelaxScene& scene) {
     s.particles.id() = data.id;
     fileVelocity = data.velocity;
     fileAngularVelocity = data.angularVelocity;
+    s.fileTime = data.time;
     s.origin = fmt::format("read from {}", path.string());
     s.attributes = data.attributes;
     s.attributes.erase("target_not_reached");  // a mark of the run that wrote the file, not of this one

@@ -43,6 +43,9 @@ first=$(ls r_*0.txt 2>/dev/null | head -1)
 [ -n "$first" ] || { ls; cat b.log; fail "no step-0 snapshot of the restarted run"; }
 grep -v '^#' s.txt > a.data; grep -v '^#' "$first" > b.data
 cmp a.data b.data || { diff a.data b.data | head; fail "the restarted run does not start from the snapshot's state"; }
+# Its clock continues from the snapshot's time (the step-0 snapshot carries the same time).
+rtime=$(sed -n 's/^# time: //p' "$first")
+[ "$rtime" = "$time" ] || fail "the restarted run starts at time '$rtime', the snapshot was at '$time'"
 
 # The HDF5 snapshot carries the same record.
 if run relax relax_small.toml -q --steps 1500 --set output.snapshot=\"s.h5\" --set output.snapshot_interval=0 \
@@ -53,6 +56,8 @@ if run relax relax_small.toml -q --steps 1500 --set output.snapshot=\"s.h5\" --s
   [ -n "$hfirst" ] || { ls; fail "no step-0 snapshot of the run restarted from HDF5"; }
   grep -v '^#' "$hfirst" > h.data
   cmp a.data h.data || { diff a.data h.data | head; fail "the run restarted from HDF5 differs"; }
+  htime=$(sed -n 's/^# time: //p' "$hfirst")
+  [ "$htime" = "$time" ] || fail "the run restarted from HDF5 starts at time '$htime', not '$time'"
 elif grep -q "POLYDEM_WITH_HDF5=OFF" c.log; then
   echo "(built without HDF5: HDF5 snapshot not checked)"
 else
