@@ -315,26 +315,21 @@ void sampleStart(JamRun& run) {
                     opt.count));
   }
   const auto dist = makeDistribution(opt.dist);
-  const Sampling sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
   std::string equivalentDescription;
-  std::vector<double> radii = opt.equivalent == "none"
-                                  ? dist->sample(opt.count, sampling, opt.seed)
-                                  : equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
-  std::mt19937_64 rng(opt.seed ^ 0x9e3779b97f4a7c15ULL);
-  std::shuffle(radii.begin(), radii.end(), rng);
-  PackingRequest request;
-  request.radii = radii;
+  StartPackingRequest request;
+  request.count = opt.count;
+  request.sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
+  if (opt.equivalent != "none") request.radii = equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
   request.packingFraction = opt.initialPhi;
   request.boundaries = parseBoundaries(opt.boundaries);
   request.seed = opt.seed;
   Stopwatch rsaClock;
-  const Configuration config = randomSequentialAddition(request);
-  run.start.box = config.box;
-  run.start.position = config.position;
-  run.start.radius = config.radius;
-  run.start.id.resize(static_cast<std::size_t>(opt.count));
-  for (Index i = 0; i < opt.count; ++i) run.start.id[static_cast<std::size_t>(i)] = i;
-  run.start.attributes["distribution"] = dist->describe();
+  StartPacking packing = makeStartPacking(*dist, request);
+  run.start.box = packing.configuration.box;
+  run.start.position = std::move(packing.configuration.position);
+  run.start.radius = std::move(packing.configuration.radius);
+  run.start.id = std::move(packing.id);
+  run.start.attributes["distribution"] = packing.distribution;
   if (opt.equivalent != "none") run.start.attributes["equivalent_mixture"] = equivalentDescription;
   run.origin = fmt::format("random sequential addition of {} spheres ({}) at phi {}", opt.count,
                            opt.equivalent == "none" ? dist->describe() : equivalentDescription, opt.initialPhi);
