@@ -4,12 +4,12 @@
 // Cases: 0 mono, 1 uniform-volume omega 10, 2 uniform-volume omega 50 (random overlapping centres),
 // 3 = case 1 without overlaps (random sequential addition; update benchmarks only).
 // Run (Release): build/benchmarks/polydem_baselines_bench --benchmark_min_time=0.1
+#include <benchmark/benchmark.h>
+
 #include <map>
 #include <random>
 #include <string>
 #include <tuple>
-
-#include <benchmark/benchmark.h>
 
 #include "broadphase/registry.hpp"
 #include "core/initial_configuration.hpp"

@@ -1,10 +1,10 @@
 // Broad-phase benchmarks: build + findPairs per particle for every backend in the registry, on
 // monodisperse and wide distributions. Run: build/benchmarks/polydem_broadphase_bench
 //   --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
+#include <benchmark/benchmark.h>
+
 #include <map>
 #include <string>
-
-#include <benchmark/benchmark.h>
 
 #include "broadphase/registry.hpp"
 #include "tests/support/scene.hpp"
@@ -21,8 +21,11 @@ const test::Scene& cachedScene(Index count, int dist, double ratio) {
   auto it = cache.find(key);
   if (it == cache.end()) {
     it = cache
-             .emplace(key, test::makeScene({.count = count, .distribution = kDistributions[dist],
-                                            .sizeRatio = dist == 0 ? 1.0 : ratio, .packing = 0.3, .seed = 7}))
+             .emplace(key, test::makeScene({.count = count,
+                                            .distribution = kDistributions[dist],
+                                            .sizeRatio = dist == 0 ? 1.0 : ratio,
+                                            .packing = 0.3,
+                                            .seed = 7}))
              .first;
   }
   return it->second;

@@ -12,15 +12,15 @@
 // (omega = 50 compresses for minutes; POLYDEM_EDMD_BENCH_START_2=FILE reads a start written by
 // `polydem jam -n 20000 --dist uniform-volume --omega 50 --schedule 1e-2 --target-phi 0.5 -o FILE
 // --velocities`).
+#include <benchmark/benchmark.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <stdexcept>
 #include <map>
 #include <random>
+#include <stdexcept>
 #include <string>
-
-#include <benchmark/benchmark.h>
 
 #include "core/initial_configuration.hpp"
 #include "core/io/particle_file.hpp"

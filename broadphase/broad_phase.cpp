@@ -1,9 +1,9 @@
 #include "broadphase/broad_phase.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -29,9 +29,10 @@ std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& 
       throw ConfigError(fmt::format("particle {}: non-finite centre ({}, {}, {})", i, x[0], x[1], x[2]));
     }
     if (!box.contains(x)) {
-      throw ConfigError(fmt::format("particle {}: centre ({}, {}, {}) outside the box {} (wrap periodic "
-                                    "coordinates into [0, L))",
-                                    i, x[0], x[1], x[2], box.describe()));
+      throw ConfigError(
+          fmt::format("particle {}: centre ({}, {}, {}) outside the box {} (wrap periodic "
+                      "coordinates into [0, L))",
+                      i, x[0], x[1], x[2], box.describe()));
     }
     rmin = std::min(rmin, r);
     rmax = std::max(rmax, r);
@@ -39,9 +40,10 @@ std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& 
   const double cutoff = 2.0 * rmax + skin;
   for (int k = 0; k < 3; ++k) {
     if (box.periodic(k) && n > 0 && box.length(k) < 2.0 * cutoff) {
-      throw ConfigError(fmt::format("box length {} along {} is below 2 * max cutoff ({} = 2 r_max + skin): "
-                                    "enlarge the box or make {} non-periodic",
-                                    box.length(k), "xyz"[k], cutoff, "xyz"[k]));
+      throw ConfigError(
+          fmt::format("box length {} along {} is below 2 * max cutoff ({} = 2 r_max + skin): "
+                      "enlarge the box or make {} non-periodic",
+                      box.length(k), "xyz"[k], cutoff, "xyz"[k]));
     }
   }
   return {rmin, rmax};

@@ -40,8 +40,7 @@ struct Counters {
 
 /// The one pair predicate on raw coordinates: centres a, b with radii ra, rb. Written out term by term
 /// (and compiled without FMA contraction) so every caller rounds identically. Symmetric in (a, b).
-inline bool spheresWithinReach(const Box& box, const double* a, double ra, const double* b, double rb,
-                               double reach) {
+inline bool spheresWithinReach(const Box& box, const double* a, double ra, const double* b, double rb, double reach) {
   const Eigen::Vector3d d = box.minimumImage(Eigen::Vector3d(a[0] - b[0], a[1] - b[1], a[2] - b[2]));
   const double limit = (ra + rb) + reach;
   return d[0] * d[0] + d[1] * d[1] + d[2] * d[2] <= limit * limit;
@@ -72,8 +71,7 @@ class BroadPhase {
   virtual void findPairs(const SphereView& spheres, std::vector<Pair>& out) const = 0;
 
   /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending. Clears `out` first.
-  virtual void findNeighbours(const SphereView& spheres, Index i, double reach,
-                              std::vector<Index>& out) const = 0;
+  virtual void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const = 0;
 
   /// Heap bytes held by the index structure (not the caller's particle arrays or pair buffer).
   virtual std::size_t memoryBytes() const { return 0; }

@@ -1,9 +1,9 @@
 #include "broadphase/cgal_box.hpp"
 
-#include <algorithm>
-
 #include <CGAL/box_intersection_d.h>
 #include <fmt/format.h>
+
+#include <algorithm>
 
 #include "core/errors.hpp"
 

@@ -1,14 +1,14 @@
 #include "broadphase/delaunay.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Regular_triangulation_3.h>
 #include <CGAL/Regular_triangulation_cell_base_3.h>
 #include <CGAL/Regular_triangulation_vertex_base_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 #include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "core/errors.hpp"
 

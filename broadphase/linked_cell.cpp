@@ -1,9 +1,9 @@
 #include "broadphase/linked_cell.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -113,9 +113,7 @@ int LinkedCell::neighbourhood(int cell, std::array<int, 27>& out) const {
 }
 
 namespace {
-inline void emit(std::vector<Pair>& out, Index a, Index b) {
-  out.push_back(a < b ? Pair{a, b} : Pair{b, a});
-}
+inline void emit(std::vector<Pair>& out, Index a, Index b) { out.push_back(a < b ? Pair{a, b} : Pair{b, a}); }
 }  // namespace
 
 template <bool kCount>

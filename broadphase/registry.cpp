@@ -1,8 +1,8 @@
 #include "broadphase/registry.hpp"
 
-#include <array>
-
 #include <fmt/format.h>
+
+#include <array>
 
 #include "broadphase/aabb_tree.hpp"
 #include "broadphase/auto_select.hpp"

@@ -1,11 +1,11 @@
 #include "broadphase/sweep_and_prune.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 

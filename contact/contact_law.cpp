@@ -1,10 +1,10 @@
 #include "contact/contact_law.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -45,10 +45,10 @@ void ContactParameters::validate() const {
         "with sqrt(R_eff)");
   }
   if (normal == NormalModel::Hertz && restitution < 1e-3) {
-    throw ConfigError(fmt::format(
-        "contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
-        "linear law for nearly plastic contacts",
-        restitution));
+    throw ConfigError(
+        fmt::format("contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
+                    "linear law for nearly plastic contacts",
+                    restitution));
   }
 }
 

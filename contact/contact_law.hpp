@@ -46,11 +46,11 @@ struct ContactParameters {
   /// Linear constant: k (N/m). Linear radius-scaled: k_ij = stiffness * R_eff (N/m^2). Hertz: K = 4/3 E* (Pa).
   double stiffness = 0.0;
   StiffnessScaling scaling = StiffnessScaling::Constant;  ///< linear only
-  double restitution = 1.0;                 ///< normal coefficient of restitution e in [0, 1]
-  double friction = 0.0;                    ///< Coulomb mu >= 0; 0 = frictionless (no rotation, no history)
+  double restitution = 1.0;                               ///< normal coefficient of restitution e in [0, 1]
+  double friction = 0.0;                        ///< Coulomb mu >= 0; 0 = frictionless (no rotation, no history)
   double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (2/7: tangential and normal periods agree)
-  double tangentialDampingRatio = 0.0;      ///< c_t / c_n
-  double referenceVelocity = 0.0;           ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
+  double tangentialDampingRatio = 0.0;          ///< c_t / c_n
+  double referenceVelocity = 0.0;               ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
 
   bool usesFriction() const { return friction > 0.0; }
   bool elastic() const { return restitution == 1.0 && friction == 0.0; }
@@ -90,15 +90,17 @@ struct NormalForce {
 
 struct LinearNormal {
   struct Params {
-    double stiffness;      ///< N/m, or N/m^2 when radiusScaled
-    double twoZeta;        ///< 2 zeta(e)
+    double stiffness;  ///< N/m, or N/m^2 when radiusScaled
+    double twoZeta;    ///< 2 zeta(e)
     bool radiusScaled;
   };
   static constexpr bool kUsesRotation = false;
   static constexpr int kHistorySize = 0;
   static constexpr const char* kName = "linear";
 
-  static double pairStiffness(const Params& p, double reff) { return p.radiusScaled ? p.stiffness * reff : p.stiffness; }
+  static double pairStiffness(const Params& p, double reff) {
+    return p.radiusScaled ? p.stiffness * reff : p.stiffness;
+  }
   static NormalForce force(const Params& p, double overlap, double rate, double meff, double reff) {
     const double k = pairStiffness(p, reff);
     const double c = p.twoZeta * std::sqrt(meff * k);
@@ -123,8 +125,8 @@ struct HertzNormal {
     const double kij = p.stiffness * std::sqrt(reff);  // K_ij, N/m^1.5
     const double root = std::sqrt(overlap);
     const double eta = p.alpha * std::sqrt(meff * kij);
-    const double kTangent = kij * root;                // d F / d overlap without the 3/2
-    const double c = eta * std::sqrt(root);            // eta overlap^(1/4)
+    const double kTangent = kij * root;      // d F / d overlap without the 3/2
+    const double c = eta * std::sqrt(root);  // eta overlap^(1/4)
     return {kTangent * overlap + c * rate, kTangent, c};
   }
   static double energy(const Params& p, double overlap, double reff) {

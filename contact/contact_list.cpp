@@ -47,7 +47,8 @@ void ContactList::buildBlocks(int blocks) {
   for (std::size_t t = 0; t < b; ++t) targetOffset[t + 1] += targetOffset[t];
   byTarget.resize(crossPair.size());
   for (std::size_t k = 0; k < crossTarget_.size(); ++k) {
-    byTarget[static_cast<std::size_t>(targetOffset[static_cast<std::size_t>(crossTarget_[k])]++)] = static_cast<Index>(k);
+    byTarget[static_cast<std::size_t>(targetOffset[static_cast<std::size_t>(crossTarget_[k])]++)] =
+        static_cast<Index>(k);
   }
   for (std::size_t t = b; t > 0; --t) targetOffset[t] = targetOffset[t - 1];
   targetOffset[0] = 0;

@@ -64,8 +64,8 @@ struct ForceContext {
   const double* inverseInertia = nullptr;
   double* torque = nullptr;  ///< overwritten
   const ContactList* list = nullptr;
-  ContactHistory* pairHistory = nullptr;  ///< parallel to list->neighbour; width Law::kHistorySize
-  ContactHistory* wallHistory = nullptr;  ///< parallel to list->wallParticle
+  ContactHistory* pairHistory = nullptr;   ///< parallel to list->neighbour; width Law::kHistorySize
+  ContactHistory* wallHistory = nullptr;   ///< parallel to list->wallParticle
   double length[3] = {1.0, 1.0, 1.0};      ///< box edges
   double halfLength[3] = {0.5, 0.5, 0.5};  ///< L/2 on periodic axes, +inf on walled axes (no image)
   double gravity[3] = {0.0, 0.0, 0.0};     ///< m/s^2
@@ -74,7 +74,7 @@ struct ForceContext {
   /// > 1: the OpenMP loop over list->blockCount() blocks (POLYDEM_WITH_OPENMP builds), which needs
   /// list->buildBlocks() and the cross scratch. 1 = the serial loop.
   int threads = 1;
-  double* crossScratch = nullptr;        ///< threads > 1: crossScratchSize() doubles
+  double* crossScratch = nullptr;         ///< threads > 1: crossScratchSize() doubles
   std::uint8_t* crossTouching = nullptr;  ///< threads > 1: one flag per cross pair
 };
 

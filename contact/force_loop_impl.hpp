@@ -1,13 +1,12 @@
 #pragma once
 // Definition of computeForces<Law, kFlags>. Included only by force_loop_instances.cpp, which lists
 // the explicit instantiations: other translation units see the declaration in force_loop.hpp.
+#include <Eigen/Core>
+#include <Eigen/Geometry>  // cross products
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-
-#include <Eigen/Core>
-#include <Eigen/Geometry>  // cross products
 
 #include "contact/force_loop.hpp"
 #include "core/errors.hpp"
@@ -92,9 +91,15 @@ struct PairKernel {
         torque(ctx.torque),
         offset(ctx.list->offset.data()),
         neighbour(ctx.list->neighbour.data()),
-        L0(ctx.length[0]), L1(ctx.length[1]), L2(ctx.length[2]),
-        H0(ctx.halfLength[0]), H1(ctx.halfLength[1]), H2(ctx.halfLength[2]),
-        g0(ctx.gravity[0]), g1(ctx.gravity[1]), g2(ctx.gravity[2]),
+        L0(ctx.length[0]),
+        L1(ctx.length[1]),
+        L2(ctx.length[2]),
+        H0(ctx.halfLength[0]),
+        H1(ctx.halfLength[1]),
+        H2(ctx.halfLength[2]),
+        g0(ctx.gravity[0]),
+        g1(ctx.gravity[1]),
+        g2(ctx.gravity[2]),
         viscousRate(ctx.viscousRate),
         dt(ctx.dt),
         history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr) {}
@@ -130,9 +135,18 @@ struct PairKernel {
                  [[maybe_unused]] Vec3& tqj) const {
     double d0 = a.x0 - x[3 * j], d1 = a.x1 - x[3 * j + 1], d2 = a.x2 - x[3 * j + 2];
     // Minimum image; halfLength is +inf on walled axes, so those never shift.
-    if (d0 > H0) d0 -= L0; else if (d0 < -H0) d0 += L0;
-    if (d1 > H1) d1 -= L1; else if (d1 < -H1) d1 += L1;
-    if (d2 > H2) d2 -= L2; else if (d2 < -H2) d2 += L2;
+    if (d0 > H0)
+      d0 -= L0;
+    else if (d0 < -H0)
+      d0 += L0;
+    if (d1 > H1)
+      d1 -= L1;
+    else if (d1 < -H1)
+      d1 += L1;
+    if (d2 > H2)
+      d2 -= L2;
+    else if (d2 < -H2)
+      d2 += L2;
     const double rsq = d0 * d0 + d1 * d1 + d2 * d2;
     const double rj = r[j];
     const double sumR = a.r + rj;
@@ -158,8 +172,8 @@ struct PairKernel {
       const Vec3 vrelHalf = load(vh, i) - load(vh, j);
       Vec3 vch = vrelHalf - (ai * load(wh, i) + aj * load(wh, j)).cross(nrm);
       const Vec3 vtHalf = vch - vch.dot(nrm) * nrm;
-      const Vec3 ft = tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt,
-                                      history + kHistory * static_cast<std::size_t>(c));
+      const Vec3 ft =
+          tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt, history + kHistory * static_cast<std::size_t>(c));
       fc += ft;
       const Vec3 arm = nrm.cross(ft);  // torque_i = -a_i n x F_t, torque_j = -a_j n x F_t
       tqi = ai * arm;
@@ -378,8 +392,7 @@ void computeForces(const typename Law::Params& params, const ForceContext& ctx) 
         const Vec3 vt = vc - vc.dot(nrm) * nrm;
         Vec3 vch = detail::load(vh, i) - a * detail::load(wh, i).cross(nrm);
         const Vec3 vtHalf = vch - vch.dot(nrm) * nrm;
-        const Vec3 ft =
-            detail::tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt, wallHistory + kHistory * c);
+        const Vec3 ft = detail::tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt, wallHistory + kHistory * c);
         fc += ft;
         detail::subtract(torque, i, a * nrm.cross(ft));
       }

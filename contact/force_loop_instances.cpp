@@ -1,7 +1,7 @@
 // Every shipped force-kernel combination, instantiated once, and the dispatch that picks one.
-#include <type_traits>
-
 #include <fmt/format.h>
+
+#include <type_traits>
 
 #include "contact/force_loop_impl.hpp"
 #include "core/errors.hpp"
@@ -9,7 +9,7 @@
 namespace polydem::contact {
 
 // 4 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
-#define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                              \
+#define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
   template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
   template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
   template void computeForces<LAW, KernelFlags{false, true, false}>(const LAW::Params&, const ForceContext&);  \
@@ -48,14 +48,22 @@ template <class Law>
 ForceKernelFn pickFlags(KernelFlags flags) {
   const int code = (flags.walls ? 1 : 0) | (flags.gravity ? 2 : 0) | (flags.viscous ? 4 : 0);
   switch (code) {
-    case 0: return &runKernel<Law, KernelFlags{false, false, false}>;
-    case 1: return &runKernel<Law, KernelFlags{true, false, false}>;
-    case 2: return &runKernel<Law, KernelFlags{false, true, false}>;
-    case 3: return &runKernel<Law, KernelFlags{true, true, false}>;
-    case 4: return &runKernel<Law, KernelFlags{false, false, true}>;
-    case 5: return &runKernel<Law, KernelFlags{true, false, true}>;
-    case 6: return &runKernel<Law, KernelFlags{false, true, true}>;
-    default: return &runKernel<Law, KernelFlags{true, true, true}>;
+    case 0:
+      return &runKernel<Law, KernelFlags{false, false, false}>;
+    case 1:
+      return &runKernel<Law, KernelFlags{true, false, false}>;
+    case 2:
+      return &runKernel<Law, KernelFlags{false, true, false}>;
+    case 3:
+      return &runKernel<Law, KernelFlags{true, true, false}>;
+    case 4:
+      return &runKernel<Law, KernelFlags{false, false, true}>;
+    case 5:
+      return &runKernel<Law, KernelFlags{true, false, true}>;
+    case 6:
+      return &runKernel<Law, KernelFlags{false, true, true}>;
+    default:
+      return &runKernel<Law, KernelFlags{true, true, true}>;
   }
 }
 

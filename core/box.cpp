@@ -1,8 +1,8 @@
 #include "core/box.hpp"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "core/errors.hpp"
 
@@ -15,8 +15,8 @@ Box::Box(const Eigen::Vector3d& lengths, const std::array<Boundary, 3>& boundari
   constexpr const char* kAxis = "xyz";
   for (int k = 0; k < 3; ++k) {
     if (!(std::isfinite(lengths[k]) && lengths[k] > 0.0)) {
-      throw ConfigError(fmt::format("box length along {} must be a positive finite number, got {}", kAxis[k],
-                                    lengths[k]));
+      throw ConfigError(
+          fmt::format("box length along {} must be a positive finite number, got {}", kAxis[k], lengths[k]));
     }
   }
 }

@@ -1,9 +1,8 @@
 #pragma once
 // Simulation box [0, Lx) x [0, Ly) x [0, Lz). Each axis is periodic or bounded by two hard walls.
+#include <Eigen/Core>
 #include <array>
 #include <string>
-
-#include <Eigen/Core>
 
 namespace polydem {
 
@@ -53,9 +52,7 @@ class Box {
   /// "periodic 10 x 10 x 10" or "walls(x,y) periodic(z) 4 x 4 x 8" for messages and reports.
   std::string describe() const;
 
-  bool operator==(const Box& other) const {
-    return lengths_ == other.lengths_ && boundaries_ == other.boundaries_;
-  }
+  bool operator==(const Box& other) const { return lengths_ == other.lengths_ && boundaries_ == other.boundaries_; }
 
  private:
   Eigen::Vector3d lengths_;

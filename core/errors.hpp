@@ -27,9 +27,9 @@ class SimulationError : public std::runtime_error {
 }  // namespace polydem
 
 #if defined(POLYDEM_ENABLE_ASSERTS) && POLYDEM_ENABLE_ASSERTS
-#define POLYDEM_ASSERT(cond, message)                                                   \
-  do {                                                                                  \
-    if (!(cond)) ::polydem::assertionFailed(#cond, message, __FILE__, __LINE__);        \
+#define POLYDEM_ASSERT(cond, message)                                            \
+  do {                                                                           \
+    if (!(cond)) ::polydem::assertionFailed(#cond, message, __FILE__, __LINE__); \
   } while (false)
 #else
 #define POLYDEM_ASSERT(cond, message) \

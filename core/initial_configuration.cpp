@@ -17,12 +17,12 @@
 // largest sphere (the small spheres of a wide distribution would all share a few cells).
 #include "core/initial_configuration.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/types.hpp"
@@ -151,8 +151,8 @@ class MultiLevelGrid {
     Level& level = levels_[static_cast<std::size_t>(levelOf_[static_cast<std::size_t>(i)])];
     std::int64_t cell = 0;
     for (int k = 2; k >= 0; --k) {
-      const auto c = std::clamp(static_cast<std::int64_t>(std::floor(x[k] * level.inverseCell[k])),
-                                std::int64_t{0}, level.n[k] - 1);
+      const auto c = std::clamp(static_cast<std::int64_t>(std::floor(x[k] * level.inverseCell[k])), std::int64_t{0},
+                                level.n[k] - 1);
       cell = cell * level.n[k] + c;
     }
     next_[static_cast<std::size_t>(i)] = level.head[static_cast<std::size_t>(cell)];

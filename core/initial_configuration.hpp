@@ -15,12 +15,12 @@
 namespace polydem {
 
 struct PackingRequest {
-  std::vector<double> radii;                     ///< one per sphere, > 0; output keeps this order
-  double packingFraction = 0.3;                  ///< in (0, 1); sets the box volume
-  Eigen::Vector3d aspect = {1.0, 1.0, 1.0};      ///< box edge ratios, > 0
+  std::vector<double> radii;                 ///< one per sphere, > 0; output keeps this order
+  double packingFraction = 0.3;              ///< in (0, 1); sets the box volume
+  Eigen::Vector3d aspect = {1.0, 1.0, 1.0};  ///< box edge ratios, > 0
   std::array<Boundary, 3> boundaries = {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
-  std::uint64_t seed = 1;                        ///< std::mt19937_64 seed for the centres
-  std::int64_t maxAttemptsPerParticle = 20000;   ///< RSA gives up after this many rejected trial centres
+  std::uint64_t seed = 1;                       ///< std::mt19937_64 seed for the centres
+  std::int64_t maxAttemptsPerParticle = 20000;  ///< RSA gives up after this many rejected trial centres
 };
 
 struct Configuration {

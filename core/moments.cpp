@@ -44,8 +44,8 @@ std::string Moments::describe() const {
                               raw[3], raw[4], raw[5]);
   s += fmt::format("M_k (k = 2..5) {:.6g} {:.6g} {:.6g} {:.6g}\n", scaled[2], scaled[3], scaled[4], scaled[5]);
   // Issue 15: no nan in a report; the kurtosis of a monodisperse sample is 0/0.
-  const std::string beta2 = std::isnan(kurtosis) ? std::string("undefined (monodisperse: zero variance)")
-                                                 : fmt::format("{:.6g}", kurtosis);
+  const std::string beta2 =
+      std::isnan(kurtosis) ? std::string("undefined (monodisperse: zero variance)") : fmt::format("{:.6g}", kurtosis);
   s += fmt::format("M^c_k (k = 2..5) {:.6g} {:.6g} {:.6g} {:.6g}  kurtosis beta2 {}\n", central[2], central[3],
                    central[4], central[5], beta2);
   s += fmt::format("D10 {:.6g}  D20 {:.6g}  D32 {:.6g}  D43 {:.6g}\n", diameter(1, 0), diameter(2, 0), diameter(3, 2),
@@ -88,8 +88,8 @@ Moments momentsFromRaw(const std::array<double, 6>& raw, const std::array<double
   m.delta = std::sqrt(m.central[2]);
   m.a = 1.0 / (m.central[2] + 1.0);
   // Monodisperse (delta below round-off): the kurtosis 0/0 is undefined.
-  m.kurtosis = m.monodisperse() ? std::numeric_limits<double>::quiet_NaN()
-                                : m.central[4] / (m.central[2] * m.central[2]);
+  m.kurtosis =
+      m.monodisperse() ? std::numeric_limits<double>::quiet_NaN() : m.central[4] / (m.central[2] * m.central[2]);
   return m;
 }
 

@@ -1,10 +1,9 @@
 #pragma once
 // Particle data as a structure of arrays: one Eigen array per property, one column per particle.
 // Optional arrays (rotation) have zero columns unless the scene's Features ask for them.
+#include <Eigen/Core>
 #include <span>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "core/types.hpp"
 

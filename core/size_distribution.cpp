@@ -19,12 +19,12 @@
 // whichever side is small, so truncation far out in a tail keeps its relative accuracy.
 #include "core/size_distribution.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -158,7 +158,11 @@ class Bi final : public SizeDistribution {
 class PowerLaw final : public SizeDistribution {
  public:
   PowerLaw(std::string name, double rmin, double omega, double alpha)
-      : name_(std::move(name)), rmin_(rmin), omega_(omega), alpha_(alpha), e_(alpha + 1.0),
+      : name_(std::move(name)),
+        rmin_(rmin),
+        omega_(omega),
+        alpha_(alpha),
+        e_(alpha + 1.0),
         logOmega_(std::log(omega)) {}
 
   std::string describe() const override {
@@ -223,13 +227,22 @@ class PowerLaw final : public SizeDistribution {
 class LogNormal final : public SizeDistribution {
  public:
   LogNormal(double median, double sigma, double rmin, double rmax)
-      : median_(median), mu_(std::log(median)), sigma_(sigma), rmin_(rmin), rmax_(rmax),
-        truncated_(rmax < kInf), zmin_(z(rmin)), zmax_(z(rmax)), mass_(normalMass(zmin_, zmax_)),
-        lowerTail_(normalCdf(zmin_)), upperTail_(normalUpper(zmax_)) {
+      : median_(median),
+        mu_(std::log(median)),
+        sigma_(sigma),
+        rmin_(rmin),
+        rmax_(rmax),
+        truncated_(rmax < kInf),
+        zmin_(z(rmin)),
+        zmax_(z(rmax)),
+        mass_(normalMass(zmin_, zmax_)),
+        lowerTail_(normalCdf(zmin_)),
+        upperTail_(normalUpper(zmax_)) {
     if (!(mass_ > 0.0)) {
-      throw ConfigError(fmt::format("log-normal truncation [rmin, rmax] = [{}, {}] holds no probability for median {} "
-                                    "and sigma {}: move rmin/omega towards the median",
-                                    rmin, rmax, median, sigma));
+      throw ConfigError(
+          fmt::format("log-normal truncation [rmin, rmax] = [{}, {}] holds no probability for median {} "
+                      "and sigma {}: move rmin/omega towards the median",
+                      rmin, rmax, median, sigma));
     }
   }
 
@@ -285,7 +298,7 @@ double standardNormalQuantile(double p) {
   if (!(p < 1.0)) return p == 1.0 ? kInf : std::numeric_limits<double>::quiet_NaN();
   // P. J. Acklam's rational approximation (relative error < 1.15e-9), then one Halley step on
   // Phi(x) - p. Working with the smaller tail keeps the residual relative to a small number.
-  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02, -2.759285104469687e+02,
+  static constexpr double a[] = {-3.969683028665376e+01, 2.209460984245205e+02,  -2.759285104469687e+02,
                                  1.383577518672690e+02,  -3.066479806614716e+01, 2.506628277459239e+00};
   static constexpr double b[] = {-5.447609879822406e+01, 1.615858368580409e+02, -1.556989798598866e+02,
                                  6.680131188771972e+01, -1.328068155288572e+01};
@@ -335,13 +348,15 @@ std::vector<double> SizeDistribution::sample(Index count, Sampling sampling, std
   const std::int64_t smallest = smallestRepresentativeCount();
   if (count > 0 && count < smallest) {
     if (smallest > std::numeric_limits<Index>::max()) {
-      throw ConfigError(fmt::format("{}: no particle count up to {} can represent it (a species would get no sphere): "
-                                    "lower the size ratio or raise the fraction of the rare species",
-                                    describe(), std::numeric_limits<Index>::max()));
+      throw ConfigError(
+          fmt::format("{}: no particle count up to {} can represent it (a species would get no sphere): "
+                      "lower the size ratio or raise the fraction of the rare species",
+                      describe(), std::numeric_limits<Index>::max()));
     }
-    throw ConfigError(fmt::format("{}: {} particles cannot represent it (a species would get no sphere); the "
-                                  "smallest count that works is N = {}",
-                                  describe(), count, smallest));
+    throw ConfigError(
+        fmt::format("{}: {} particles cannot represent it (a species would get no sphere); the "
+                    "smallest count that works is N = {}",
+                    describe(), count, smallest));
   }
   // Both modes draw from std::mt19937_64(seed), one uniform per draw from its top 53 bits: Systematic
   // uses the first draw as the common offset u, Random uses draw i for radius i.
@@ -360,9 +375,10 @@ std::vector<double> SizeDistribution::sample(Index count, Sampling sampling, std
     const bool hasLo = std::find(radii.begin(), radii.end(), lo) != radii.end();
     const bool hasHi = std::find(radii.begin(), radii.end(), hi) != radii.end();
     if (!hasLo || !hasHi) {
-      throw ConfigError(fmt::format("{}: the random draw of {} particles (seed {}) holds no sphere of radius {:g}; "
-                                    "use systematic sampling (exact counts from N = {}) or more particles",
-                                    describe(), count, seed, hasLo ? hi : lo, smallest));
+      throw ConfigError(
+          fmt::format("{}: the random draw of {} particles (seed {}) holds no sphere of radius {:g}; "
+                      "use systematic sampling (exact counts from N = {}) or more particles",
+                      describe(), count, seed, hasLo ? hi : lo, smallest));
     }
   }
   return radii;
@@ -409,9 +425,10 @@ std::unique_ptr<SizeDistribution> makeDistribution(const DistributionSpec& spec)
     requirePositive("rmin", spec.rmin);
     return std::make_unique<LogNormal>(spec.median, spec.sigma, spec.rmin, spec.rmin * spec.omega);
   }
-  throw ConfigError(fmt::format("unknown size distribution kind '{}'; valid kinds: mono, bi, uniform-radius (us), "
-                                "uniform-volume (uv), power-law, log-normal (ln)",
-                                kind));
+  throw ConfigError(
+      fmt::format("unknown size distribution kind '{}'; valid kinds: mono, bi, uniform-radius (us), "
+                  "uniform-volume (uv), power-law, log-normal (ln)",
+                  kind));
 }
 
 std::array<double, 6> sampleMoments(std::span<const double> radii) {

@@ -31,13 +31,13 @@ enum class FractionKind { Volume, Number };
 
 /// What a user asks for (command line, scene file); turned into a distribution by makeDistribution().
 struct DistributionSpec {
-  std::string kind = "mono";  ///< mono, bi, uniform-radius, uniform-volume, power-law, log-normal
-  double rmin = 1.0;          ///< smallest radius (mono: the radius; log-normal: lower truncation or 0)
-  double omega = 1.0;         ///< size ratio rmax / rmin (bi: r_b / r_s; log-normal: 0 = untruncated)
-  double alpha = 0.0;         ///< power-law exponent
-  double sigma = 0.5;         ///< log-normal width
-  double median = 1.0;        ///< log-normal a0
-  double largeFraction = 0.5; ///< bi: fraction of the large species
+  std::string kind = "mono";   ///< mono, bi, uniform-radius, uniform-volume, power-law, log-normal
+  double rmin = 1.0;           ///< smallest radius (mono: the radius; log-normal: lower truncation or 0)
+  double omega = 1.0;          ///< size ratio rmax / rmin (bi: r_b / r_s; log-normal: 0 = untruncated)
+  double alpha = 0.0;          ///< power-law exponent
+  double sigma = 0.5;          ///< log-normal width
+  double median = 1.0;         ///< log-normal a0
+  double largeFraction = 0.5;  ///< bi: fraction of the large species
   FractionKind fractionKind = FractionKind::Volume;
 };
 

@@ -209,7 +209,8 @@ CompressionResult compress(HardSphereSystem& system, const CompressionOptions& o
       result.targetReached = true;
       break;
     }
-    if (progress.pressure >= (toDensity ? std::min(options.targetPressure, cs.pressureLimit) : options.targetPressure)) {
+    if (progress.pressure >=
+        (toDensity ? std::min(options.targetPressure, cs.pressureLimit) : options.targetPressure)) {
       // With a density target the pressure bound is the jamming guard: the pressure diverges at phi_J.
       result.stopReason = toDensity ? "jammed before the target packing fraction" : "pressure";
       result.targetReached = !toDensity;
@@ -300,9 +301,10 @@ Eigen::Matrix3Xd maxwellBoltzmannVelocities(const Eigen::VectorXd& radius, std::
 
 double reopenRadiusFactor(double pressure) {
   if (!(pressure > 3.0) || !std::isfinite(pressure)) {
-    throw ConfigError(fmt::format("reopening to reduced pressure {}: must be finite and > 3 (the free-volume law "
-                                  "p ~ 3 / (1 - phi / phi_J) has no solution below)",
-                                  pressure));
+    throw ConfigError(
+        fmt::format("reopening to reduced pressure {}: must be finite and > 3 (the free-volume law "
+                    "p ~ 3 / (1 - phi / phi_J) has no solution below)",
+                    pressure));
   }
   return std::cbrt(1.0 - 3.0 / pressure);
 }

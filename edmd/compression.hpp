@@ -11,9 +11,9 @@
 //
 // Rates are dimensionless: Gamma = (dO_max/dt) / v_th, the growth speed of the largest radius in units
 // of the thermal speed v_th = sqrt(sum m v^2 / sum m), which the thermostat holds at 1. Every radius grows
-// in proportion (Ogarko, thesis, University of Twente, eq. 3.22), i.e. the engine's relative rate is g = Gamma v_th / O_max.
-// (Ogarko's thesis quotes Gamma against v0 = sqrt(2E/(3M)) = v_th / sqrt(3); Donev 2006 against the
-// "thermal speed" of the Skoge-Donev code, which is v_th.)
+// in proportion (Ogarko, thesis, University of Twente, eq. 3.22), i.e. the engine's relative rate is g = Gamma v_th /
+// O_max. (Ogarko's thesis quotes Gamma against v0 = sqrt(2E/(3M)) = v_th / sqrt(3); Donev 2006 against the "thermal
+// speed" of the Skoge-Donev code, which is v_th.)
 #include <cstdint>
 #include <functional>
 #include <limits>

@@ -35,7 +35,8 @@ Index EventQueue::runnerUp() const {
   const std::size_t n = static_cast<std::size_t>(size_);
   if (n <= 1) return heap[0].particle;
   std::size_t best = 1;
-  for (std::size_t c = 2; c <= std::min<std::size_t>(kArity, n - 1); ++c) best = heap[c].key < heap[best].key ? c : best;
+  for (std::size_t c = 2; c <= std::min<std::size_t>(kArity, n - 1); ++c)
+    best = heap[c].key < heap[best].key ? c : best;
   return heap[best].particle;
 }
 

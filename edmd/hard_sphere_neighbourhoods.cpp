@@ -1,10 +1,10 @@
 // HardSphereSystem, part: bounding neighbourhoods and near-neighbour lists (Donev 2006, thesis, §3.2.4):
 // global rebuilds through the shared broad phase, Morton renumbering, the skin rule and its adaptation,
 // the flat list storage, and neighbourhood exits answered by hood_grid.hpp.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/morton.hpp"

@@ -1,15 +1,14 @@
 // HardSphereSystem, part: the state of a synchronised system for checkpoints (saveState, restoreState)
 // and the invariant checker validate() used by tests.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "edmd/hard_sphere_system.hpp"
 
 namespace polydem::edmd {
-
 
 // ---------------------------------------------------------------------------------------------------
 // Checkpoint state

@@ -5,10 +5,10 @@
 // state save/restore, invariants).
 #include "edmd/hard_sphere_system.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
@@ -20,7 +20,6 @@ namespace {
 constexpr const char* kAxis = "xyz";
 
 }  // namespace
-
 
 double PressureWindow::reducedPressure() const {
   if (!(kineticIntegral > 0.0)) return std::numeric_limits<double>::quiet_NaN();

@@ -10,8 +10,8 @@
 // * One predicted event per particle in an indexed 4-ary heap (Donev 2006, §3.4.1): binary collision, check
 //   after a partner's collision, plain check (prediction invalidated by a third party), exit from the
 //   bounding neighbourhood, hard-wall collision. Predictions accept a collision with j only before both
-//   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (Donev 2006, Algorithm 5, step 4); a claimed particle's
-//   previous partner is lazily relabelled a check at its old time (Algorithm 5, step 5). The strict test is
+//   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (Donev 2006, Algorithm 5, step 4); a claimed
+//   particle's previous partner is lazily relabelled a check at its old time (Algorithm 5, step 5). The strict test is
 //   what stops a just-collided pair from being re-predicted at zero delay by the first of the two.
 // * Near-neighbour lists with bounding neighbourhoods (Donev 2006, §3.3.2; digest §1.11): neighbourhood i is a sphere
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
@@ -73,8 +73,8 @@ struct SystemOptions {
   /// with skinCap >= 1, whenever f = 1.
   double skinFloor = 1.0;
   /// Adapt f at global rebuilds from the fraction of events that are neighbourhood exits (Donev
-  /// 2006, §3.6.1, automatic tuning of mu_cutoff): x1.3 when exits cost too much, /1.15 when they are cheap (never below skinFloor). Small,
-  /// fast spheres of wide size distributions then get skins of a few smallest radii.
+  /// 2006, §3.6.1, automatic tuning of mu_cutoff): x1.3 when exits cost too much, /1.15 when they are cheap (never
+  /// below skinFloor). Small, fast spheres of wide size distributions then get skins of a few smallest radii.
   bool adaptiveSkin = true;
   /// How "too much" is judged, for size ratios >= 2: balance the work, W = exitWork x exits / (pair
   /// predictions), grow above 2, shrink below 0.5; an exit (grid query, list merge, prediction) costs as
@@ -128,9 +128,8 @@ struct EventCounts {
   std::int64_t events() const { return collisions + wallCollisions + checks + exits; }
   /// Counts between two snapshots (later - earlier).
   friend EventCounts operator-(const EventCounts& a, const EventCounts& b) {
-    return {a.collisions - b.collisions, a.wallCollisions - b.wallCollisions, a.checks - b.checks,
-            a.exits - b.exits,           a.rebuilds - b.rebuilds,             a.relocatedLists - b.relocatedLists,
-            a.missed - b.missed};
+    return {a.collisions - b.collisions, a.wallCollisions - b.wallCollisions, a.checks - b.checks, a.exits - b.exits,
+            a.rebuilds - b.rebuilds,     a.relocatedLists - b.relocatedLists, a.missed - b.missed};
   }
 };
 

@@ -8,13 +8,13 @@
 // byte 0xFF) so a truncated or corrupt file still goes through the open path.
 // Properties: only InputError escapes readSnapshot; a file that reads writes back (writeSnapshot) and
 // reads again to the same data.
+#include <fuzzer/FuzzedDataProvider.h>
+#include <hdf5.h>
+
 #include <cstdint>
 #include <cstring>
 #include <string>
 #include <vector>
-
-#include <fuzzer/FuzzedDataProvider.h>
-#include <hdf5.h>
 
 #include "core/errors.hpp"
 #include "core/io/hdf5_snapshot.hpp"
@@ -26,22 +26,33 @@ enum class Kind : std::uint8_t { F64, F32, I32, I8, U64, String, Group };
 
 hid_t fileType(Kind kind) {
   switch (kind) {
-    case Kind::F64: return H5T_IEEE_F64LE;
-    case Kind::F32: return H5T_IEEE_F32LE;
-    case Kind::I32: return H5T_STD_I32LE;
-    case Kind::I8: return H5T_STD_I8LE;
-    default: return H5T_STD_U64LE;
+    case Kind::F64:
+      return H5T_IEEE_F64LE;
+    case Kind::F32:
+      return H5T_IEEE_F32LE;
+    case Kind::I32:
+      return H5T_STD_I32LE;
+    case Kind::I8:
+      return H5T_STD_I8LE;
+    default:
+      return H5T_STD_U64LE;
   }
 }
 
 double interestingDouble(FuzzedDataProvider& in) {
   switch (in.ConsumeIntegralInRange<int>(0, 7)) {
-    case 0: return std::numeric_limits<double>::quiet_NaN();
-    case 1: return std::numeric_limits<double>::infinity();
-    case 2: return -std::numeric_limits<double>::infinity();
-    case 3: return -0.0;
-    case 4: return std::numeric_limits<double>::denorm_min();
-    default: return in.ConsumeFloatingPointInRange<double>(-4.0, 12.0);
+    case 0:
+      return std::numeric_limits<double>::quiet_NaN();
+    case 1:
+      return std::numeric_limits<double>::infinity();
+    case 2:
+      return -std::numeric_limits<double>::infinity();
+    case 3:
+      return -0.0;
+    case 4:
+      return std::numeric_limits<double>::denorm_min();
+    default:
+      return in.ConsumeFloatingPointInRange<double>(-4.0, 12.0);
   }
 }
 
@@ -49,7 +60,8 @@ double interestingDouble(FuzzedDataProvider& in) {
 /// other datasets use, so consistent shapes are frequent.
 void writeDataset(FuzzedDataProvider& in, hid_t file, const char* path, hsize_t n, hsize_t columns) {
   if (in.ConsumeIntegralInRange<int>(0, 9) == 0) return;  // missing
-  const auto kind = static_cast<Kind>(in.ConsumeIntegralInRange<int>(0, 9) < 7 ? 0 : in.ConsumeIntegralInRange<int>(0, 6));
+  const auto kind =
+      static_cast<Kind>(in.ConsumeIntegralInRange<int>(0, 9) < 7 ? 0 : in.ConsumeIntegralInRange<int>(0, 6));
   if (kind == Kind::Group) {
     H5Gclose(H5Gcreate2(file, path, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
     return;
@@ -77,7 +89,7 @@ void writeDataset(FuzzedDataProvider& in, hid_t file, const char* path, hsize_t 
     std::vector<double> values(total);
     for (double& v : values) {
       v = kind == Kind::F64 || kind == Kind::F32 ? interestingDouble(in)
-                                                   : static_cast<double>(in.ConsumeIntegralInRange<int>(-3, 300));
+                                                 : static_cast<double>(in.ConsumeIntegralInRange<int>(-3, 300));
     }
     if (kind == Kind::U64 && !values.empty() && in.ConsumeBool()) values[0] = 1e19;  // beyond int64
     const hid_t d = H5Dcreate2(file, path, fileType(kind), space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
@@ -112,8 +124,8 @@ void writeAttribute(FuzzedDataProvider& in, hid_t location, const std::string& n
     H5Tclose(type);
   } else {
     const double values[2] = {interestingDouble(in), interestingDouble(in)};
-    const hid_t a = H5Acreate2(location, name.c_str(), kind == 2 ? H5T_IEEE_F64LE : H5T_STD_I32LE, space, H5P_DEFAULT,
-                               H5P_DEFAULT);
+    const hid_t a =
+        H5Acreate2(location, name.c_str(), kind == 2 ? H5T_IEEE_F64LE : H5T_STD_I32LE, space, H5P_DEFAULT, H5P_DEFAULT);
     if (a >= 0) {
       H5Awrite(a, H5T_NATIVE_DOUBLE, values);
       H5Aclose(a);
@@ -141,7 +153,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const hid_t f = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
     if (f < 0) return 0;
     const hsize_t n = in.ConsumeIntegralInRange<hsize_t>(0, 6);
-    if (in.ConsumeIntegralInRange<int>(0, 9) != 0) H5Gclose(H5Gcreate2(f, "/box", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+    if (in.ConsumeIntegralInRange<int>(0, 9) != 0)
+      H5Gclose(H5Gcreate2(f, "/box", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
     writeDataset(in, f, "/box/lengths", 3, 0);
     writeDataset(in, f, "/box/periodic", 3, 0);
     if (in.ConsumeIntegralInRange<int>(0, 9) != 0) {
@@ -158,7 +171,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       const int count = in.ConsumeIntegralInRange<int>(0, 4);
       for (int k = 0; k < count; ++k) {
         std::string name = in.ConsumeRandomLengthString(12);
-        if (name.empty() || name.find('\0') != std::string::npos || name == "." ) name = "k" + std::to_string(k);
+        if (name.empty() || name.find('\0') != std::string::npos || name == ".") name = "k" + std::to_string(k);
         writeAttribute(in, g, name);
       }
       H5Gclose(g);

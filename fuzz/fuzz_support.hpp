@@ -1,14 +1,14 @@
 #pragma once
 // Shared by the fuzz targets: a private scratch file per process, and a hard stop on a broken property
 // (libFuzzer reports the abort with the input that caused it).
+#include <unistd.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <string_view>
-
-#include <unistd.h>
 
 namespace polydem::fuzz {
 

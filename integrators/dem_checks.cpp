@@ -1,10 +1,10 @@
 // DemSimulation's stability checks and the errors of a run that went wrong: every SimulationError names
 // the step, the particles and the likely cause with a concrete fix (see dem_simulation.hpp).
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "integrators/dem_simulation.hpp"
@@ -36,13 +36,15 @@ std::string DemSimulation::dtHint() const {
                   model_.parameters().stiffness);
   if (settings_.timeStep > 0.0) {
     // The user fixed dt: run.dt_factor has no effect, so the fix must name run.dt.
-    return fmt::format("run.dt = {:.4g} s is too large for stiffness {}: it is t_c,min / {:.3g} (t_c,min = {:.4g} s); "
-                       "use run.dt <= {:.4g} s (t_c,min / 50), or remove run.dt and let run.dt_factor choose it",
-                       dt_, law, f, timeStep_.contactDuration, timeStep_.contactDuration / 50.0);
+    return fmt::format(
+        "run.dt = {:.4g} s is too large for stiffness {}: it is t_c,min / {:.3g} (t_c,min = {:.4g} s); "
+        "use run.dt <= {:.4g} s (t_c,min / 50), or remove run.dt and let run.dt_factor choose it",
+        dt_, law, f, timeStep_.contactDuration, timeStep_.contactDuration / 50.0);
   }
-  return fmt::format("dt too large for stiffness {}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
-                     "run.dt_factor f >= {:g}",
-                     law, dt_, f, timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
+  return fmt::format(
+      "dt too large for stiffness {}: dt = {:.4g} s is t_c,min / {:.3g} (t_c,min = {:.4g} s); use "
+      "run.dt_factor f >= {:g}",
+      law, dt_, f, timeStep_.contactDuration, std::max(50.0, std::ceil(2.0 * f)));
 }
 
 void DemSimulation::blowUp(Index slot, const std::string& what) const {
@@ -73,9 +75,9 @@ void DemSimulation::fail(const std::string& what, const std::string& cause) cons
   std::string energyText;
   if (std::isfinite(energy)) {
     const bool blowUp = std::abs(energy) > 10.0 * std::abs(initialEnergy_) && initialEnergy_ != 0.0;
-    energyText = fmt::format("; total energy {:.4g} J (step 0: {:.4g} J){}", energy, initialEnergy_,
-                             blowUp ? fmt::format(", {:.3g} times larger: the run blew up", energy / initialEnergy_)
-                                    : std::string());
+    energyText = fmt::format(
+        "; total energy {:.4g} J (step 0: {:.4g} J){}", energy, initialEnergy_,
+        blowUp ? fmt::format(", {:.3g} times larger: the run blew up", energy / initialEnergy_) : std::string());
   } else {
     energyText = fmt::format("; total energy not finite (step 0: {:.4g} J): the run blew up", initialEnergy_);
   }
@@ -100,11 +102,12 @@ void DemSimulation::checkStability() const {
     for (int k = 0; k < 3; ++k) {
       if (box_.periodic(k)) continue;
       if (x(k, i) < 0.0 || x(k, i) > box_.length(k)) {
-        const double needed = model_.stiffnessForOverlap(0.05 * particles_.radius()[i], 1.0 / particles_.inverseMass()[i],
-                                                         particles_.radius()[i], std::max(maxSpeed, v.col(i).norm()));
+        const double needed =
+            model_.stiffnessForOverlap(0.05 * particles_.radius()[i], 1.0 / particles_.inverseMass()[i],
+                                       particles_.radius()[i], std::max(maxSpeed, v.col(i).norm()));
         fail(fmt::format("particle id {} (r = {:g}) left the walled box through the {} wall ({} = {:g}, box {})",
-                         idOf(i), particles_.radius()[i], faceName(2 * k + (x(k, i) > 0.0 ? 1 : 0)), "xyz"[k],
-                         x(k, i), box_.describe()),
+                         idOf(i), particles_.radius()[i], faceName(2 * k + (x(k, i) > 0.0 ? 1 : 0)), "xyz"[k], x(k, i),
+                         box_.describe()),
              timeStep_.stepsPerContact < 20.0
                  ? dtHint()
                  : fmt::format("the wall contact is too soft for the impact speed ({:.3g} m/s): stiffness >= {:.3g} "
@@ -137,15 +140,17 @@ void DemSimulation::checkStability() const {
     const std::string cause =
         timeStep_.stepsPerContact < 20.0 ? dtHint()
         : settings_.impactOverlap > 0.0
-            ? fmt::format("the impacts are too fast: the initial velocities were scaled so that two smallest "
-                          "particles overlap by velocities.overlap = {:g} of their radius, and larger or faster "
-                          "pairs overlap more; lower velocities.overlap (changing the stiffness only rescales the "
-                          "velocities again)",
-                          settings_.impactOverlap)
-            : fmt::format("stiffness {:g} too soft for the impact speeds (fastest particle {:.3g} m/s): stiffness >= "
-                          "{:.3g} keeps a head-on impact of this pair below 5% of the smaller radius; or start slower "
-                          "(seed protocol: 1% overlap of the smallest particles)",
-                          model_.parameters().stiffness, maxSpeed, needed);
+            ? fmt::format(
+                  "the impacts are too fast: the initial velocities were scaled so that two smallest "
+                  "particles overlap by velocities.overlap = {:g} of their radius, and larger or faster "
+                  "pairs overlap more; lower velocities.overlap (changing the stiffness only rescales the "
+                  "velocities again)",
+                  settings_.impactOverlap)
+            : fmt::format(
+                  "stiffness {:g} too soft for the impact speeds (fastest particle {:.3g} m/s): stiffness >= "
+                  "{:.3g} keeps a head-on impact of this pair below 5% of the smaller radius; or start slower "
+                  "(seed protocol: 1% overlap of the smallest particles)",
+                  model_.parameters().stiffness, maxSpeed, needed);
     fail(fmt::format("particle id {} (r = {:g}) and {} overlap by {:.3g} of the smaller radius (limit {:g})", idOf(i),
                      ri, partner, stats.maxOverlapRatio, settings_.stability.maxOverlapFraction),
          cause);

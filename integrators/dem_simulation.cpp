@@ -1,6 +1,6 @@
 #include "integrators/dem_simulation.hpp"
 
-#include "core/morton.hpp"
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
@@ -9,11 +9,10 @@
 #include <numeric>
 #include <utility>
 
-#include <fmt/format.h>
-
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
+#include "core/morton.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::integrators {
@@ -214,10 +213,10 @@ void DemSimulation::validateSettings() {
   settings_.stability.validate();
   if (!settings_.gravity.allFinite()) throw ConfigError("run.gravity must be finite");
   if (settings_.gravity != Eigen::Vector3d::Zero() && box_.fullyPeriodic()) {
-    throw ConfigError(fmt::format(
-        "run.gravity = [{:g}, {:g}, {:g}] in a fully periodic box: nothing holds the particles, they fall "
-        "forever; put walls across gravity, e.g. box.boundaries = [\"periodic\", \"periodic\", \"wall\"]",
-        settings_.gravity[0], settings_.gravity[1], settings_.gravity[2]));
+    throw ConfigError(
+        fmt::format("run.gravity = [{:g}, {:g}, {:g}] in a fully periodic box: nothing holds the particles, they fall "
+                    "forever; put walls across gravity, e.g. box.boundaries = [\"periodic\", \"periodic\", \"wall\"]",
+                    settings_.gravity[0], settings_.gravity[1], settings_.gravity[2]));
   }
   if (!(settings_.viscousDamping >= 0.0 && std::isfinite(settings_.viscousDamping))) {
     throw ConfigError(fmt::format("run.viscous_damping must be >= 0, got {}", settings_.viscousDamping));
@@ -227,9 +226,10 @@ void DemSimulation::validateSettings() {
   }
   if (settings_.threads < 1) throw ConfigError(fmt::format("run.threads must be >= 1, got {}", settings_.threads));
   if (settings_.threads > 1 && !POLYDEM_WITH_OPENMP) {
-    throw ConfigError(fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON (this one is serial); "
-                                  "use run.threads = 1",
-                                  settings_.threads));
+    throw ConfigError(
+        fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON (this one is serial); "
+                    "use run.threads = 1",
+                    settings_.threads));
   }
   verlet_.setBlocks(settings_.threads);
 }
@@ -256,10 +256,11 @@ void DemSimulation::rejectCoincidentCentres() const {
     for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
       const Index j = list.neighbour[c];
       if (box_.minimumImage(x.col(j) - x.col(i)).squaredNorm() == 0.0) {
-        throw ConfigError(fmt::format("particles id {} and id {} are coincident (both centred at ({:g}, {:g}, {:g})): "
-                                      "remove the duplicate from the input",
-                                      particles_.id()[static_cast<std::size_t>(i)],
-                                      particles_.id()[static_cast<std::size_t>(j)], x(0, i), x(1, i), x(2, i)));
+        throw ConfigError(
+            fmt::format("particles id {} and id {} are coincident (both centred at ({:g}, {:g}, {:g})): "
+                        "remove the duplicate from the input",
+                        particles_.id()[static_cast<std::size_t>(i)], particles_.id()[static_cast<std::size_t>(j)],
+                        x(0, i), x(1, i), x(2, i)));
       }
     }
   }
@@ -328,8 +329,9 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
   if (kernel_.historyWidth > 0) {
     verlet_.keys(particles_.id(), pairKeys_, wallKeys_);
     if (pairKeys_ != state.pairKeys || wallKeys_ != state.wallKeys) {
-      throw InputError("checkpoint: the rebuilt neighbour list differs from the saved one (was the checkpoint "
-                       "written by another version of polydem?)");
+      throw InputError(
+          "checkpoint: the rebuilt neighbour list differs from the saved one (was the checkpoint "
+          "written by another version of polydem?)");
     }
     pairHistory_.assign(state.pairKeys, state.pairValues);
     wallHistory_.assign(state.wallKeys, state.wallValues);
@@ -423,9 +425,9 @@ void DemSimulation::rebuild() {
         }
       } else if (xk < 0.0 || xk > L) {
         checkStability();  // names the particle that left the box and why
-        fail(fmt::format("particle id {} left the box along {}", particles_.id()[static_cast<std::size_t>(i)],
-                         "xyz"[k]),
-             dtHint());
+        fail(
+            fmt::format("particle id {} left the box along {}", particles_.id()[static_cast<std::size_t>(i)], "xyz"[k]),
+            dtHint());
       }
     }
   }

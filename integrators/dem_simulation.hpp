@@ -6,8 +6,9 @@
 //   F = F(x, v_pred);  v += dt/2 F/m
 // with v_pred = v(t + dt/2) + dt/2 F(t)/m the predicted full-step velocity for dashpots (see
 // contact/force_loop.hpp). Rotation (omega, torque, solid-sphere inertia) is integrated the same way,
-// only when the kernel has rotation (friction, or the general kernel: DemSettings::needsRotation). Periodic coordinates are wrapped into [0, L) at each rebuild, so
-// between rebuilds they stray at most skin/2 outside, which the minimum image in the kernel absorbs.
+// only when the kernel has rotation (friction, or the general kernel: DemSettings::needsRotation). Periodic coordinates
+// are wrapped into [0, L) at each rebuild, so between rebuilds they stray at most skin/2 outside, which the minimum
+// image in the kernel absorbs.
 //
 // A stability check runs every `checkInterval` steps (and on demand): non-finite state, a particle
 // outside a walled box, an overlap above a fraction of the smaller radius, or energy growth in a
@@ -15,12 +16,11 @@
 //
 // Nothing in the time loop allocates once the neighbour list and histories have reached their size.
 // With settings.threads > 1 the force loop and the kicks run on OpenMP threads (bit-identical results).
+#include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "contact/contact_history.hpp"
 #include "contact/contact_law.hpp"
@@ -46,10 +46,10 @@ struct DemSettings {
   double skin = -1.0;             ///< Verlet skin (m); < 0 = 0.2 r_min
   std::string broadPhase = "linked-cell";
   Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< m/s^2
-  double viscousDamping = 0.0;    ///< global damping rate gamma (1/s): F -= gamma m v
+  double viscousDamping = 0.0;                        ///< global damping rate gamma (1/s): F -= gamma m v
   StabilityLimits stability;
-  bool spatialSort = true;        ///< reorder particles along a Morton curve once, for cache locality
-  bool generalKernel = false;     ///< force the most general kernel (comparisons); needs rotation arrays
+  bool spatialSort = true;     ///< reorder particles along a Morton curve once, for cache locality
+  bool generalKernel = false;  ///< force the most general kernel (comparisons); needs rotation arrays
   /// OpenMP threads for the force loop and the kicks (>= 1). 1 runs the serial code; > 1 needs a
   /// POLYDEM_WITH_OPENMP build and gives bit-identical results (see contact/force_loop.hpp). The
   /// neighbour-list rebuild stays serial.
@@ -100,8 +100,8 @@ struct DemState {
   std::vector<Index> id;
   Eigen::Matrix3Xd position, velocity, force, angularVelocity, torque;  ///< rotation arrays empty without
   Eigen::VectorXd radius, inverseMass, inverseInertia;
-  Eigen::Matrix3Xd referencePosition;  ///< centres at the last build
-  Eigen::VectorXd referenceRadius;     ///< radii at the last build
+  Eigen::Matrix3Xd referencePosition;             ///< centres at the last build
+  Eigen::VectorXd referenceRadius;                ///< radii at the last build
   std::vector<std::uint64_t> pairKeys, wallKeys;  ///< history keys (checked against the rebuilt list)
   std::vector<double> pairValues, wallValues;     ///< history values, width per key
 };
@@ -202,7 +202,7 @@ class DemSimulation {
   Eigen::Matrix3Xd velocityPredicted_, angularVelocityPredicted_;
   std::vector<double> crossScratch_;         ///< threads > 1: forces (torques) of the cross pairs
   std::vector<std::uint8_t> crossTouching_;  ///< threads > 1: contact flag per cross pair
-  bool predict_ = false;  ///< dashpots or viscous damping present: keep velocityPredicted_
+  bool predict_ = false;                     ///< dashpots or viscous damping present: keep velocityPredicted_
   bool conservative_ = false;
   double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)
   std::int64_t step_ = 0;

@@ -1,9 +1,9 @@
 #include "integrators/initial_velocities.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <random>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 

@@ -1,9 +1,9 @@
 #include "integrators/soft_compression.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
@@ -15,9 +15,10 @@ void CompressionSettings::validate() const {
     throw ConfigError(fmt::format("compression.packing_fraction must be in (0, 1), got {}", targetPacking));
   }
   if (!(growthRate > 0.0 && growthRate <= 0.1)) {
-    throw ConfigError(fmt::format("compression.growth_rate must be in (0, 0.1] (relative radius growth per contact "
-                                  "duration), got {}",
-                                  growthRate));
+    throw ConfigError(
+        fmt::format("compression.growth_rate must be in (0, 0.1] (relative radius growth per contact "
+                    "duration), got {}",
+                    growthRate));
   }
   if (!(damping > 0.0 && std::isfinite(damping))) {
     throw ConfigError(fmt::format("compression.damping must be > 0, got {}", damping));
@@ -55,8 +56,7 @@ SoftCompression::SoftCompression(ParticleStore particles, const Box& box, DemSet
                                  const CompressionSettings& compression)
     : compression_((compression.validate(), compression)),
       progress_{.contactDuration = startingContactDuration(particles, box, settings)},
-      sim_(std::move(particles), box,
-           compressionSettings(settings, compression.damping / progress_.contactDuration)) {
+      sim_(std::move(particles), box, compressionSettings(settings, compression.damping / progress_.contactDuration)) {
   progress_.viscousDamping = sim_.settings().viscousDamping;
 }
 

@@ -17,11 +17,11 @@
 namespace polydem::integrators {
 
 struct CompressionSettings {
-  double targetPacking = 0.0;            ///< compression.packing_fraction, in (0, 1)
-  double growthRate = 2e-3;              ///< compression.growth_rate: relative radius growth per t_c,min
-  double damping = 0.2;                  ///< compression.damping: gamma t_c,min
-  double relaxedOverlap = 0.01;          ///< compression.max_overlap: stop once overlap / r_small is below
-  std::int64_t maxSteps = 20'000'000;    ///< compression.max_steps: give up (target not reached) after this
+  double targetPacking = 0.0;          ///< compression.packing_fraction, in (0, 1)
+  double growthRate = 2e-3;            ///< compression.growth_rate: relative radius growth per t_c,min
+  double damping = 0.2;                ///< compression.damping: gamma t_c,min
+  double relaxedOverlap = 0.01;        ///< compression.max_overlap: stop once overlap / r_small is below
+  std::int64_t maxSteps = 20'000'000;  ///< compression.max_steps: give up (target not reached) after this
   /// ConfigError naming the key for out-of-range values.
   void validate() const;
   /// The packing fraction to generate the start at when `requested` is asked for: never above the
@@ -44,13 +44,13 @@ struct CompressionResult {
 struct CompressionProgress {
   enum class Phase : int { Growing = 0, Relaxing = 1, Done = 2 };
   Phase phase = Phase::Growing;
-  std::int64_t steps = 0;         ///< steps so far (growth + relaxation)
-  std::int64_t growthSteps = 0;   ///< set when growth ends
+  std::int64_t steps = 0;        ///< steps so far (growth + relaxation)
+  std::int64_t growthSteps = 0;  ///< set when growth ends
   std::int64_t relaxSteps = 0;
-  bool packed = false;            ///< the packing fraction was reached (set when growth ends)
-  double overlap = 0.0;           ///< largest overlap / r_small after the last relaxation chunk
-  double contactDuration = 0.0;   ///< t_c,min of the starting state: sets the rates
-  double viscousDamping = 0.0;    ///< gamma = damping / t_c,min, the simulation's viscous_damping
+  bool packed = false;           ///< the packing fraction was reached (set when growth ends)
+  double overlap = 0.0;          ///< largest overlap / r_small after the last relaxation chunk
+  double contactDuration = 0.0;  ///< t_c,min of the starting state: sets the rates
+  double viscousDamping = 0.0;   ///< gamma = damping / t_c,min, the simulation's viscous_damping
 };
 
 /// A soft compression advanced chunk by chunk (20 growth steps, or 100 relaxation steps), so that the

@@ -1,23 +1,23 @@
 #include "integrators/time_step.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <vector>
 
-#include <fmt/format.h>
-
 #include "core/errors.hpp"
 
 namespace polydem::integrators {
 
 std::string TimeStepChoice::describe() const {
-  const std::string second = slotB >= 0 ? fmt::format("id {}, r = {:g}", idB, radiusB)
-                                        : fmt::format("the wall {}{}", (-1 - slotB) & 1 ? "+" : "-",
-                                                      "xyz"[(-1 - slotB) >> 1]);
-  return fmt::format("dt = {:.6g} s = t_c,min / {:g}; t_c,min = {:.6g} s, set by particle id {} (r = {:g}) and {}",
-                     dt, stepsPerContact, contactDuration, idA, radiusA, second);
+  const std::string second = slotB >= 0
+                                 ? fmt::format("id {}, r = {:g}", idB, radiusB)
+                                 : fmt::format("the wall {}{}", (-1 - slotB) & 1 ? "+" : "-", "xyz"[(-1 - slotB) >> 1]);
+  return fmt::format("dt = {:.6g} s = t_c,min / {:g}; t_c,min = {:.6g} s, set by particle id {} (r = {:g}) and {}", dt,
+                     stepsPerContact, contactDuration, idA, radiusA, second);
 }
 
 TimeStepChoice chooseTimeStep(const contact::ContactModel& model, const ParticleStore& particles, const Box& box,
@@ -97,8 +97,8 @@ TimeStepChoice chooseTimeStep(const contact::ContactModel& model, const Particle
     best.radiusB = radius[best.slotB];
   }
   if (!(best.dt > 0.0 && std::isfinite(best.dt))) {
-    throw ConfigError(fmt::format("could not choose a time step (t_c,min = {}): check masses and stiffness",
-                                  best.contactDuration));
+    throw ConfigError(
+        fmt::format("could not choose a time step (t_c,min = {}): check masses and stiffness", best.contactDuration));
   }
   return best;
 }

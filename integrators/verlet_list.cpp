@@ -1,10 +1,10 @@
 #include "integrators/verlet_list.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 

@@ -91,8 +91,8 @@ std::optional<PairGap> smallestGap(const SphereView& spheres, const Box& box, co
 
 PackingValidity checkHardSpherePacking(const SphereView& spheres, const Box& box, const PackingCheckOptions& options) {
   if (!(options.overlapTolerance >= 0.0) || !std::isfinite(options.overlapTolerance)) {
-    throw ConfigError(fmt::format("packing check: overlap tolerance must be finite and >= 0, got {}",
-                                  options.overlapTolerance));
+    throw ConfigError(
+        fmt::format("packing check: overlap tolerance must be finite and >= 0, got {}", options.overlapTolerance));
   }
   PackingValidity out;
   const Index n = spheres.count();
@@ -150,26 +150,26 @@ std::string describeInvalidPacking(const PackingValidity& v, std::span<const Ind
   if (v.worstI >= 0) {
     const std::string what =
         v.worstJ == v.worstI ? fmt::format("sphere {} overlaps its own periodic image", name(v.worstI))
-        : v.worstJ < 0       ? fmt::format("sphere {} crosses the {} wall at {} = {}", name(v.worstI),
-                                           v.worstWall % 2 ? "upper" : "lower", "xyz"[v.worstWall / 2],
-                                           v.worstWall % 2 ? "L" : "0")
-                             : fmt::format("spheres {} and {} overlap", name(v.worstI), name(v.worstJ));
+        : v.worstJ < 0
+            ? fmt::format("sphere {} crosses the {} wall at {} = {}", name(v.worstI),
+                          v.worstWall % 2 ? "upper" : "lower", "xyz"[v.worstWall / 2], v.worstWall % 2 ? "L" : "0")
+            : fmt::format("spheres {} and {} overlap", name(v.worstI), name(v.worstJ));
     worst = fmt::format("{} by {:.3g} of the {} radius", what, v.worstOverlap,
                         v.worstJ >= 0 && v.worstJ != v.worstI ? "smaller" : "sphere's");
   }
   std::vector<std::string> parts;
   if (v.overlapTooLarge()) {
-    parts.push_back(fmt::format("{} (worst of {} overlaps beyond the contact tolerance {:.1e})", worst, v.overlaps,
-                                v.tolerance));
+    parts.push_back(
+        fmt::format("{} (worst of {} overlaps beyond the contact tolerance {:.1e})", worst, v.overlaps, v.tolerance));
   }
   if (v.densityTooHigh()) {
-    parts.push_back(fmt::format(
-        "packing fraction {:.8f} exceeds {:.8f}, the largest any packing of these radii can have ({}){}",
-        v.packingFraction, v.densityBound,
-        v.equalSpheres              ? "FCC density pi/sqrt(18) for equal spheres"
-        : v.densityBound < 1.0 ? "pi/sqrt(18) <r^3>/r_min^3"
-                                    : "the box volume",
-        v.overlapTooLarge() || worst.empty() ? "" : fmt::format("; worst overlap: {}", worst)));
+    parts.push_back(
+        fmt::format("packing fraction {:.8f} exceeds {:.8f}, the largest any packing of these radii can have ({}){}",
+                    v.packingFraction, v.densityBound,
+                    v.equalSpheres         ? "FCC density pi/sqrt(18) for equal spheres"
+                    : v.densityBound < 1.0 ? "pi/sqrt(18) <r^3>/r_min^3"
+                                           : "the box volume",
+                    v.overlapTooLarge() || worst.empty() ? "" : fmt::format("; worst overlap: {}", worst)));
   }
   std::string text;
   for (const std::string& p : parts) text += (text.empty() ? "" : "; ") + p;
@@ -180,9 +180,10 @@ PackingValidity requireHardSpherePacking(const SphereView& spheres, const Box& b
                                          const std::string& what, std::span<const Index> ids) {
   const PackingValidity v = checkHardSpherePacking(spheres, box, options);
   if (!v.valid()) {
-    throw InputError(fmt::format("{}: not a valid hard-sphere packing: {}; no contact statistics or jamming verdict "
-                                 "for it",
-                                 what, describeInvalidPacking(v, ids)));
+    throw InputError(
+        fmt::format("{}: not a valid hard-sphere packing: {}; no contact statistics or jamming verdict "
+                    "for it",
+                    what, describeInvalidPacking(v, ids)));
   }
   return v;
 }

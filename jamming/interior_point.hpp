@@ -21,22 +21,22 @@
 namespace polydem::jamming {
 
 struct InteriorPointOptions {
-  double tolerance = 1e-9;         ///< |E^T y + s - c| / (1 + |c|) and |c.z - r.y| / (1 + |c.z|)
-  double primalTolerance = 1e-6;   ///< |E z - r| / (1 + |r|): near the optimum the normal matrix spans ~20
-                                   ///< decades and the solves limit it to ~1e-9..1e-6 on jamming LPs
-  int stallIterations = 15;        ///< stop after this many iterations without a better iterate (the best is returned)
+  double tolerance = 1e-9;        ///< |E^T y + s - c| / (1 + |c|) and |c.z - r.y| / (1 + |c.z|)
+  double primalTolerance = 1e-6;  ///< |E z - r| / (1 + |r|): near the optimum the normal matrix spans ~20
+                                  ///< decades and the solves limit it to ~1e-9..1e-6 on jamming LPs
+  int stallIterations = 15;       ///< stop after this many iterations without a better iterate (the best is returned)
   int maxIterations = 200;
-  int centralityCorrectors = 2;    ///< Gondzio correctors per iteration (0 = plain Mehrotra)
-  bool trace = false;  ///< one line per iteration on stderr
+  int centralityCorrectors = 2;  ///< Gondzio correctors per iteration (0 = plain Mehrotra)
+  bool trace = false;            ///< one line per iteration on stderr
 };
 
 struct InteriorPointResult {
   bool converged = false;
-  std::string message;   ///< why it stopped
+  std::string message;  ///< why it stopped
   int iterations = 0;
-  Eigen::VectorXd z;     ///< primal solution
-  Eigen::VectorXd y;     ///< equality multipliers (dual solution)
-  Eigen::VectorXd s;     ///< reduced costs
+  Eigen::VectorXd z;             ///< primal solution
+  Eigen::VectorXd y;             ///< equality multipliers (dual solution)
+  Eigen::VectorXd s;             ///< reduced costs
   double primalObjective = 0.0;  ///< c.z
   double dualObjective = 0.0;    ///< r.y
   double primalResidual = 0.0;   ///< |E z - r| / (1 + |r|)

@@ -73,7 +73,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   }
   const auto start = std::chrono::steady_clock::now();
   edmd::HardSphereSystem system(box, position, radius, edmd::maxwellBoltzmannVelocities(radius, options.seed),
-                               options.system);
+                                options.system);
   system.setGrowthRate(0.0);
   system.setThermalSpeed(1.0);
   const edmd::EventCounts initial = system.counts();
@@ -98,8 +98,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
           "mean {:.3e} max {:.3e} D_i (sphere {})",
           b + 1, done, block.pressure,
           out.blocks.front().pressure > 0.0 ? block.pressure / out.blocks.front().pressure - 1.0 : 0.0,
-          block.meanDisplacement,
-          block.maxDisplacement, block.maxSphere));
+          block.meanDisplacement, block.maxDisplacement, block.maxSphere));
     }
     if (c.collisions == 0) break;  // nothing collides (a gas of one sphere): nothing to watch
   }
@@ -130,8 +129,7 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   const bool drift = !(out.driftRatio <= options.driftFactor);
   if (out.counts.collisions == 0 || !(first > 0.0)) {
     out.verdict = fmt::format("not tested: {} in {} blocks, so there is no pressure to watch",
-                              out.counts.collisions == 0 ? "no collisions" : "no collisions in the first quarter",
-                              m);
+                              out.counts.collisions == 0 ? "no collisions" : "no collisions in the first quarter", m);
     return out;
   }
   out.leaks = leak || drift;

@@ -10,7 +10,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
-  clang libfuzzer-14-dev
+  clang libfuzzer-14-dev clang-format
 )
 
 missing=()

@@ -1,8 +1,7 @@
 #pragma once
 // Subcommands of the polydem program. Each registers itself on the CLI11 app and returns a runner.
-#include <functional>
-
 #include <CLI/CLI.hpp>
+#include <functional>
 
 namespace polydem::app {
 

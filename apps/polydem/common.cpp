@@ -1,10 +1,10 @@
 #include "apps/polydem/common.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <limits>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
@@ -15,8 +15,8 @@ namespace polydem::app {
 void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& fractionKind) {
   cmd.add_option("--dist", spec.kind,
                  "size distribution: mono, bi, uniform-radius (us), uniform-volume (uv), power-law, log-normal (ln)")
-      ->check(CLI::IsMember({"mono", "bi", "uniform-radius", "us", "uniform-volume", "uv", "power-law", "log-normal",
-                             "ln"}))
+      ->check(CLI::IsMember(
+          {"mono", "bi", "uniform-radius", "us", "uniform-volume", "uv", "power-law", "log-normal", "ln"}))
       ->capture_default_str();
   cmd.add_option("--rmin", spec.rmin, "smallest radius (mono: the radius; log-normal: lower cut, 0 = none)")
       ->check(finiteNonNegative())
@@ -29,7 +29,9 @@ void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& 
       ->check(finiteIn(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()))
       ->capture_default_str();
   cmd.add_option("--sigma", spec.sigma, "log-normal width")->check(finitePositive())->capture_default_str();
-  cmd.add_option("--median", spec.median, "log-normal median radius a0")->check(finitePositive())->capture_default_str();
+  cmd.add_option("--median", spec.median, "log-normal median radius a0")
+      ->check(finitePositive())
+      ->capture_default_str();
   cmd.add_option("--large-fraction", spec.largeFraction, "bi: fraction of the large species")
       ->check(finiteIn(0.0, 1.0))
       ->capture_default_str();
@@ -39,8 +41,8 @@ void addDistributionOptions(CLI::App& cmd, DistributionSpec& spec, std::string& 
 }
 
 const std::vector<std::string>& distributionOptionNames() {
-  static const std::vector<std::string> names = {"--dist",   "--rmin",   "--omega",          "--alpha",
-                                                 "--sigma",  "--median", "--large-fraction", "--fraction-kind"};
+  static const std::vector<std::string> names = {"--dist",  "--rmin",   "--omega",          "--alpha",
+                                                 "--sigma", "--median", "--large-fraction", "--fraction-kind"};
   return names;
 }
 
@@ -51,7 +53,6 @@ std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>
   }
   return {};
 }
-
 
 CLI::Validator boundaryNames() {
   return CLI::Validator(

@@ -1,12 +1,11 @@
 #pragma once
 // Helpers shared by the subcommands: option groups, parsing of boundary names, timing.
+#include <CLI/CLI.hpp>
 #include <array>
 #include <chrono>
 #include <ctime>
 #include <string>
 #include <vector>
-
-#include <CLI/CLI.hpp>
 
 #include "apps/polydem/validators.hpp"
 #include "core/box.hpp"
@@ -24,7 +23,6 @@ const std::vector<std::string>& distributionOptionNames();
 /// The first of `names` given on the command line of `cmd`, or "" if none was.
 std::string firstGivenOption(const CLI::App& cmd, const std::vector<std::string>& names);
 
-
 /// A boundary specification parseBoundaries() accepts.
 CLI::Validator boundaryNames();
 void finishDistributionSpec(DistributionSpec& spec, const std::string& fractionKind);
@@ -36,9 +34,7 @@ std::array<Boundary, 3> parseBoundaries(const std::string& text);
 class Stopwatch {
  public:
   Stopwatch() : start_(std::chrono::steady_clock::now()) {}
-  double seconds() const {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  }
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
 
  private:
   std::chrono::steady_clock::time_point start_;

@@ -1,10 +1,10 @@
 // polydem example: the built-in demonstration scene. Generates a polydisperse packing, runs every
 // broad phase on it, checks they agree, and prints the timings side by side.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
@@ -101,7 +101,9 @@ Runner addExample(CLI::App& app) {
   cmd->add_option("--omega", opt->omega, "size ratio (>= 1)")
       ->check(finiteIn(1.0, std::numeric_limits<double>::infinity()))
       ->capture_default_str();
-  cmd->add_option("--phi", opt->packing, "packing fraction in (0, 1)")->check(finiteOpen(0.0, 1.0))->capture_default_str();
+  cmd->add_option("--phi", opt->packing, "packing fraction in (0, 1)")
+      ->check(finiteOpen(0.0, 1.0))
+      ->capture_default_str();
   cmd->add_option("--repeat", opt->repeat, "timed repetitions per backend")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();

@@ -2,6 +2,8 @@
 // fraction) with the event-driven engine of edmd/, then the contact network and rattlers of the result.
 // runJam() reads as the run: settings (or a checkpoint's), checks, the start, the compression, an optional
 // run at fixed density, the report, the output and the exit code.
+#include "apps/polydem/jam.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -16,7 +18,6 @@
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/equivalent_option.hpp"
 #include "apps/polydem/exit_codes.hpp"
-#include "apps/polydem/jam.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
@@ -26,8 +27,8 @@
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
-#include "jamming/contact_network.hpp"
 #include "edmd/hard_sphere_system.hpp"
+#include "jamming/contact_network.hpp"
 
 namespace polydem::app {
 
@@ -130,7 +131,6 @@ void addJamOptions(CLI::App* cmd, JamOptions* opt) {
   cmd->add_option("--stop-after-blocks", opt->stopAfterBlocks,
                   "(testing) after this many blocks in all, act as if interrupted: checkpoint, output, exit 130")
       ->check(finiteIn(1.0, 9e18));
-
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -251,8 +251,7 @@ void resumeStart(JamRun& run) {
     throw InputError(fmt::format("{}: checkpoint has {} ids for {} particles", file, run.start.id.size(), n));
   }
   const std::size_t un = static_cast<std::size_t>(n);
-  if (n < 2 || engine.position.size() != 3 * un || engine.velocity.size() != 3 * un ||
-      engine.external.size() != un) {
+  if (n < 2 || engine.position.size() != 3 * un || engine.velocity.size() != 3 * un || engine.external.size() != un) {
     throw InputError(fmt::format("{}: checkpoint engine arrays disagree in size ({} radii)", file, n));
   }
   // Construct in the caller's numbering (the constructor checks the state), then restore the engine's own.
@@ -319,7 +318,8 @@ void sampleStart(JamRun& run) {
   StartPackingRequest request;
   request.count = opt.count;
   request.sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
-  if (opt.equivalent != "none") request.radii = equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
+  if (opt.equivalent != "none")
+    request.radii = equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
   request.packingFraction = opt.initialPhi;
   request.boundaries = parseBoundaries(opt.boundaries);
   request.seed = opt.seed;
@@ -362,10 +362,10 @@ void printStart(const JamRun& run) {
   fmt::print("box {}, {} spheres, size ratio {:.4g}, phi {:.6f}; neighbour lists: {} ({:.1f} per sphere)\n",
              run.start.box.describe(), system.count(), system.largestRadius() / system.smallestRadius(),
              system.packingFraction(), system.describeBroadPhase(), system.meanNeighbours());
-  fmt::print("schedule {} -> {}; pressures up to {:.2g} resolvable\n", edmd::formatSchedule(run.copt.schedule),
-             run.opt.targetPhi > 0 ? fmt::format("phi {}", run.opt.targetPhi)
-                                   : fmt::format("p {:g}", run.opt.targetPressure),
-             edmd::maxResolvablePressure(system));
+  fmt::print(
+      "schedule {} -> {}; pressures up to {:.2g} resolvable\n", edmd::formatSchedule(run.copt.schedule),
+      run.opt.targetPhi > 0 ? fmt::format("phi {}", run.opt.targetPhi) : fmt::format("p {:g}", run.opt.targetPressure),
+      edmd::maxResolvablePressure(system));
 }
 
 /// --eos-csv: a new table, or, resumed, the table cut back to the checkpoint and appended to.
@@ -454,8 +454,8 @@ CompressOutcome compressPacking(JamRun& run) {
   };
   const auto onBlock = [&](const edmd::Progress& p) {
     if (run.eosCsv.is_open()) {
-      run.eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure,
-                                p.rate, p.collisionsPerParticle, p.time, p.wallSeconds);
+      run.eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
+                                p.collisionsPerParticle, p.time, p.wallSeconds);
       run.flushEos(run.eosCsv);
     }
     if (p.wallSeconds - lastPrint >= opt.progressSeconds) {

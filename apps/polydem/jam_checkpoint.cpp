@@ -140,8 +140,7 @@ io::ParticleData getStartRecord(const io::Checkpoint& c) {
   const std::vector<double>& lengths = c.reals("box_lengths");
   const std::vector<std::int64_t>& bounds = c.integers("box_boundaries");
   if (lengths.size() != 3 || bounds.size() != 3) {
-    throw InputError(
-        fmt::format("{}: checkpoint entries box_lengths/box_boundaries need 3 values", c.source.string()));
+    throw InputError(fmt::format("{}: checkpoint entries box_lengths/box_boundaries need 3 values", c.source.string()));
   }
   std::array<Boundary, 3> b{};
   for (int k = 0; k < 3; ++k)

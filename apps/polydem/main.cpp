@@ -1,9 +1,9 @@
 // polydem: command-line front end. `polydem --help` lists the subcommands.
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <exception>
 #include <map>
-
-#include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/exit_codes.hpp"

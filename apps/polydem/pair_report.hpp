@@ -9,7 +9,7 @@ namespace polydem::app {
 
 struct PairReport {
   std::string backend;
-  std::string description;      ///< backend configuration after the build
+  std::string description;  ///< backend configuration after the build
   std::size_t candidatePairs = 0;
   std::size_t overlappingPairs = 0;  ///< distance < r_i + r_j
   double buildSeconds = 0.0;         ///< median
@@ -20,8 +20,7 @@ struct PairReport {
 };
 
 /// Build + findPairs `repeat` times (one untimed warm-up first), medians of the times.
-PairReport measurePairs(const std::string& backend, const SphereView& spheres, const Box& box, double skin,
-                        int repeat);
+PairReport measurePairs(const std::string& backend, const SphereView& spheres, const Box& box, double skin, int repeat);
 PairReport measurePairs(broadphase::BroadPhase& backend, const SphereView& spheres, const Box& box, double skin,
                         int repeat);
 void printPairReport(const PairReport& r, Index count);

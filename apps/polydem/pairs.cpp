@@ -1,7 +1,7 @@
 // polydem pairs: run one broad-phase backend on a particle file and report pairs and timing.
-#include <algorithm>
-
 #include <fmt/format.h>
+
+#include <algorithm>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
@@ -30,7 +30,8 @@ struct PairsOptions {
 
 /// hgrid-td / hgrid-bu with hand-set levels: --cell-sizes as given, or --levels alone with the cost
 /// model's optimal sizes for that L.
-std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, const SphereView& spheres, const Box& box) {
+std::unique_ptr<broadphase::BroadPhase> makeBackend(const PairsOptions& opt, const SphereView& spheres,
+                                                    const Box& box) {
   auto bp = broadphase::makeBroadPhase(opt.backend);
   if (opt.levels == 0 && opt.cellSizes.empty()) return bp;
   const bool topDown = opt.backend == "hgrid-td";

@@ -1,12 +1,12 @@
 #include "apps/polydem/relax_scene.hpp"
 
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
 #include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
-
-#include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "core/errors.hpp"
 
@@ -16,13 +16,20 @@ namespace {
 
 std::string typeName(const toml::node& n) {
   switch (n.type()) {
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a number";
-    case toml::node_type::boolean: return "a boolean";
-    default: return "a date or time";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a number";
+    case toml::node_type::boolean:
+      return "a boolean";
+    default:
+      return "a date or time";
   }
 }
 
@@ -138,8 +145,8 @@ class Section {
       if (!used_.count(std::string(key.str()))) {
         std::string valid;
         for (const std::string& k : used_) valid += (valid.empty() ? "" : ", ") + k;
-        throw ConfigError(fmt::format("unknown key {} ({}); keys read in [{}]: {}", path(key.str()),
-                                      where(node), name_, valid));
+        throw ConfigError(
+            fmt::format("unknown key {} ({}); keys read in [{}]: {}", path(key.str()), where(node), name_, valid));
       }
     }
   }
@@ -180,8 +187,8 @@ toml::table parseToml(const std::string& text, const std::string& source) {
   try {
     return toml::parse(text, source);
   } catch (const toml::parse_error& e) {
-    throw InputError(fmt::format("{}:{}:{}: {}", source, e.source().begin.line, e.source().begin.column,
-                                 e.description()));
+    throw InputError(
+        fmt::format("{}:{}:{}: {}", source, e.source().begin.line, e.source().begin.column, e.description()));
   }
 }
 
@@ -210,7 +217,8 @@ void applyOverride(toml::table& root, const std::string& assignment) {
   parsed.get("v")->visit([&](auto&& node) { target->insert_or_assign(key, node); });
 }
 
-/// [particles]: a file to read, or a size distribution to generate; the density. Returns whether the particles are generated.
+/// [particles]: a file to read, or a size distribution to generate; the density. Returns whether the particles are
+/// generated.
 bool readParticles(Section particles, RelaxScene& s) {
   if (!particles.present()) throw ConfigError("missing section [particles]: give particles.file or particles.count");
   s.particleFile = particles.string("file", "");
@@ -235,9 +243,9 @@ bool readParticles(Section particles, RelaxScene& s) {
     d.sigma = particles.number("sigma", d.sigma);
     d.median = particles.number("median", d.median);
     d.largeFraction = particles.number("large_fraction", d.largeFraction);
-    d.fractionKind =
-        particles.choice("fraction_kind", "volume", {"volume", "number"}) == "number" ? FractionKind::Number
-                                                                                      : FractionKind::Volume;
+    d.fractionKind = particles.choice("fraction_kind", "volume", {"volume", "number"}) == "number"
+                         ? FractionKind::Number
+                         : FractionKind::Volume;
     s.sampling = particles.choice("sampling", "systematic", {"systematic", "random"});
     s.packingFraction = particles.number("packing_fraction", s.packingFraction);
     if (!(s.packingFraction > 0.0 && s.packingFraction < 1.0)) {
@@ -276,7 +284,7 @@ void readContact(Section contact, RelaxScene& s) {
   if (!contact.present()) throw ConfigError("missing section [contact] (at least contact.stiffness)");
   contact::ContactParameters& c = s.dem.contact;
   c.normal = contact.choice("law", "linear", {"linear", "hertz"}) == "hertz" ? contact::NormalModel::Hertz
-                                                                            : contact::NormalModel::Linear;
+                                                                             : contact::NormalModel::Linear;
   c.stiffness = contact.requiredNumber("stiffness");
   c.scaling = contact.choice("stiffness_scaling", "constant", {"constant", "radius"}) == "radius"
                   ? contact::StiffnessScaling::Radius
@@ -331,7 +339,8 @@ void readRun(Section run, RelaxScene& s) {
                                   integrators::kMinStepsPerContact, dem.stepsPerContact));
   }
   dem.timeStep = run.number("dt", dem.timeStep);
-  if (!(dem.timeStep >= 0.0)) throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", dem.timeStep));
+  if (!(dem.timeStep >= 0.0))
+    throw ConfigError(fmt::format("run.dt must be >= 0 (0 = automatic), got {}", dem.timeStep));
   dem.allowUnstableDt = run.boolean("allow_unstable_dt", dem.allowUnstableDt);
   if (run.isString("skin")) {
     if (run.string("skin", "") != "auto") {
@@ -354,7 +363,8 @@ void readRun(Section run, RelaxScene& s) {
   dem.generalKernel = kernel == "general";
   dem.spatialSort = run.boolean("spatial_sort", dem.spatialSort);
   const std::int64_t threads = run.integer("threads", dem.threads);
-  if (threads < 1 || threads > 1024) throw ConfigError(fmt::format("run.threads must be in [1, 1024], got {}", threads));
+  if (threads < 1 || threads > 1024)
+    throw ConfigError(fmt::format("run.threads must be in [1, 1024], got {}", threads));
   dem.threads = static_cast<int>(threads);
   s.progressInterval = run.number("progress_interval", s.progressInterval);
   if (s.progressInterval < 0.0) {
@@ -386,21 +396,23 @@ void readOutput(Section output, RelaxScene& s) {
         fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, name it *.h5", s.checkpoint));
   }
   if (!s.snapshot.empty() && s.snapshotInterval > 0 && s.snapshot.find("{step}") == std::string::npos) {
-    throw ConfigError(fmt::format("output.snapshot = \"{}\" needs a {{step}} placeholder when "
-                                  "output.snapshot_interval > 0",
-                                  s.snapshot));
+    throw ConfigError(
+        fmt::format("output.snapshot = \"{}\" needs a {{step}} placeholder when "
+                    "output.snapshot_interval > 0",
+                    s.snapshot));
   }
 }
 
 RelaxScene interpret(const toml::table& root, const std::filesystem::path& source) {
-  static const std::set<std::string> kSections = {"particles", "box", "contact", "velocities",
+  static const std::set<std::string> kSections = {"particles",   "box", "contact", "velocities",
                                                   "compression", "run", "output"};
   for (auto&& [key, node] : root) {
     const std::string name(key.str());
     if (!kSections.count(name)) {
-      throw ConfigError(fmt::format("unknown section or key '{}' (line {}); sections: particles, box, contact, "
-                                    "velocities, compression, run, output",
-                                    name, node.source().begin.line));
+      throw ConfigError(
+          fmt::format("unknown section or key '{}' (line {}); sections: particles, box, contact, "
+                      "velocities, compression, run, output",
+                      name, node.source().begin.line));
     }
     if (!node.is_table()) throw ConfigError(fmt::format("'{}' must be a [section]", name));
   }
@@ -429,7 +441,7 @@ std::string defaultSceneToml() {
   const integrators::DemSettings dem;
   const integrators::CompressionSettings cs;
   auto num = [](double v) {
-    std::string t = fmt::format("{}", v);  // shortest text that reads back to the same double
+    std::string t = fmt::format("{}", v);                        // shortest text that reads back to the same double
     if (t.find_first_of(".en") == std::string::npos) t += ".0";  // a TOML float, not an integer
     return t;
   };

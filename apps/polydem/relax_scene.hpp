@@ -39,7 +39,7 @@ inline constexpr double kDefaultCheckpointSeconds = 600.0;
 struct RelaxScene {
   std::filesystem::path source;  ///< the scene file (relative paths in it are relative to its folder)
   // particles
-  std::string particleFile;      ///< empty: generate
+  std::string particleFile;  ///< empty: generate
   Index count = 0;
   DistributionSpec distribution;
   std::string sampling = "systematic";
@@ -61,13 +61,13 @@ struct RelaxScene {
   std::int64_t steps = 0;
   double progressInterval = 5.0;  ///< seconds between progress lines; 0 = none
   // output
-  std::string snapshot;           ///< path pattern with {step}; empty = none
+  std::string snapshot;                                      ///< path pattern with {step}; empty = none
   std::int64_t snapshotInterval = kDefaultSnapshotInterval;  ///< 0 = only at the end
-  std::string timeseries;         ///< CSV path; empty = none
+  std::string timeseries;                                    ///< CSV path; empty = none
   std::int64_t timeseriesInterval = 100;
-  std::string finalState;         ///< particle file; empty = none
-  std::string checkpoint;         ///< HDF5 checkpoint file (relax --resume); empty = none
-  std::int64_t checkpointInterval = 0;  ///< steps between checkpoints; 0 = none by steps
+  std::string finalState;                                ///< particle file; empty = none
+  std::string checkpoint;                                ///< HDF5 checkpoint file (relax --resume); empty = none
+  std::int64_t checkpointInterval = 0;                   ///< steps between checkpoints; 0 = none by steps
   double checkpointSeconds = kDefaultCheckpointSeconds;  ///< wall-clock seconds between checkpoints; 0 = none
 
   /// Resolve a path from the scene file relative to the scene's folder.

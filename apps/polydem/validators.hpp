@@ -2,13 +2,13 @@
 // CLI11 validators for numeric options: every number is finite and in range, and the message names
 // the option (CLI11 prefixes it). CLI::Range alone lets NaN through (every comparison with NaN is
 // false), so these check finiteness first.
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdlib>
 #include <limits>
 #include <string>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "core/io/attributes.hpp"
 

@@ -1,10 +1,10 @@
 #include "core/io/attributes.hpp"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -29,8 +29,7 @@ std::optional<double> numericAttribute(const ParticleData& data, const std::stri
   if (it == data.attributes.end()) return std::nullopt;
   const std::optional<double> value = parseFiniteDouble(it->second);
   if (!value) {
-    throw InputError(
-        fmt::format("{}: attribute {}: '{}' is not a finite number", file.string(), key, it->second));
+    throw InputError(fmt::format("{}: attribute {}: '{}' is not a finite number", file.string(), key, it->second));
   }
   return value;
 }

@@ -70,10 +70,12 @@ Eigen::Matrix3Xd Checkpoint::matrix(const std::string& name, std::int64_t column
 #if !POLYDEM_WITH_HDF5
 
 void writeCheckpoint(const std::filesystem::path& file, const Checkpoint&) {
-  throw ConfigError(fmt::format("{}: checkpoints need HDF5; polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
+  throw ConfigError(
+      fmt::format("{}: checkpoints need HDF5; polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
 }
 Checkpoint readCheckpoint(const std::filesystem::path& file, const std::string&) {
-  throw ConfigError(fmt::format("{}: checkpoints need HDF5; polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
+  throw ConfigError(
+      fmt::format("{}: checkpoints need HDF5; polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
 }
 
 #else

@@ -10,13 +10,12 @@
 // naming the file and the entry.
 //
 // Built without HDF5 (POLYDEM_WITH_HDF5=OFF), both functions throw ConfigError.
+#include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace polydem::io {
 

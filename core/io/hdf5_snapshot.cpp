@@ -6,7 +6,8 @@
 // description appended when HDF5 itself failed.
 #include "core/io/hdf5_snapshot.hpp"
 
-#include "polydem/config.hpp"
+#include <fmt/format.h>
+#include <fmt/ranges.h>  // fmt::join
 
 #include <algorithm>
 #include <cerrno>
@@ -20,13 +21,10 @@
 #include <utility>
 #include <vector>
 
-#include <fmt/format.h>
-#include <fmt/ranges.h>  // fmt::join
-
 #include "core/errors.hpp"
-#include "core/io/safe_output.hpp"
-
 #include "core/io/hdf5_handle.hpp"
+#include "core/io/safe_output.hpp"
+#include "polydem/config.hpp"
 
 namespace polydem::io {
 
@@ -39,14 +37,15 @@ std::filesystem::path xdmfPath(const std::filesystem::path& file) {
 #if !POLYDEM_WITH_HDF5
 
 void writeSnapshot(const std::filesystem::path& file, const ParticleData&) {
-  throw ConfigError(fmt::format("{}: cannot write an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF; "
-                                "write a text file instead",
-                                file.string()));
+  throw ConfigError(
+      fmt::format("{}: cannot write an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF; "
+                  "write a text file instead",
+                  file.string()));
 }
 
 ParticleData readSnapshot(const std::filesystem::path& file) {
-  throw ConfigError(fmt::format("{}: cannot read an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF",
-                                file.string()));
+  throw ConfigError(
+      fmt::format("{}: cannot read an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
 }
 
 #else
@@ -78,9 +77,7 @@ class Context {
  public:
   explicit Context(const std::filesystem::path& file) : name_(file.string()) {}
 
-  [[noreturn]] void fail(std::string_view problem) const {
-    throw InputError(fmt::format("{}: {}", name_, problem));
-  }
+  [[noreturn]] void fail(std::string_view problem) const { throw InputError(fmt::format("{}: {}", name_, problem)); }
   [[noreturn]] void fail(std::string_view object, std::string_view problem) const {
     throw InputError(fmt::format("{}: {}: {}", name_, object, problem));
   }
@@ -135,8 +132,8 @@ void writeDataset(const Context& ctx, hid_t file, const char* path, hid_t fileTy
   }
 }
 
-void writeStringAttribute(const Context& ctx, hid_t location, const std::string& locationName,
-                          const std::string& key, const std::string& value) {
+void writeStringAttribute(const Context& ctx, hid_t location, const std::string& locationName, const std::string& key,
+                          const std::string& value) {
   const std::string label = fmt::format("attribute {}/{}", locationName, key);
   Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
   if (!type.valid() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0) {
@@ -162,12 +159,23 @@ std::string xmlEscape(std::string_view text) {
   out.reserve(text.size());
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\'':
+        out += "&apos;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -197,7 +205,8 @@ void writeXdmf(const std::filesystem::path& file, const std::filesystem::path& s
   for (const auto& [key, value] : data.attributes) {
     xml += fmt::format("      <Information Name=\"{}\" Value=\"{}\"/>\n", xmlEscape(key), xmlEscape(value));
   }
-  xml += fmt::format("      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{}\" NodesPerElement=\"1\"/>\n", n);
+  xml +=
+      fmt::format("      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{}\" NodesPerElement=\"1\"/>\n", n);
   xml += "      <Geometry GeometryType=\"XYZ\">\n";
   xml += item(vector, "Float", 8, "/particles/position");
   xml += "      </Geometry>\n";
@@ -255,11 +264,16 @@ std::string shapeText(const std::vector<hsize_t>& shape) {
 
 std::string_view className(H5T_class_t c) {
   switch (c) {
-    case H5T_INTEGER: return "integers";
-    case H5T_FLOAT: return "floating-point numbers";
-    case H5T_STRING: return "strings";
-    case H5T_COMPOUND: return "a compound type";
-    default: return "a non-numeric type";
+    case H5T_INTEGER:
+      return "integers";
+    case H5T_FLOAT:
+      return "floating-point numbers";
+    case H5T_STRING:
+      return "strings";
+    case H5T_COMPOUND:
+      return "a compound type";
+    default:
+      return "a non-numeric type";
   }
 }
 
@@ -427,7 +441,8 @@ void validate(const Context& ctx, ParticleData& data) {
   for (Index i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) {
       const double x = data.position(k, i);
-      if (!std::isfinite(x)) ctx.fail(positionLabel, fmt::format("{}: {} = {} is not finite", particle(i), kAxis[k], x));
+      if (!std::isfinite(x))
+        ctx.fail(positionLabel, fmt::format("{}: {} = {} is not finite", particle(i), kAxis[k], x));
       if (!data.box.periodic(k) && !(x >= 0.0 && x <= data.box.length(k))) {
         ctx.fail(positionLabel, fmt::format("{}: {} = {} is outside the walled box [0, {}] along {}", particle(i),
                                             kAxis[k], x, data.box.length(k), kAxis[k]));
@@ -475,8 +490,9 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
   for (const auto& [key, value] : data.attributes) {
     if (key.empty()) throw ConfigError("particle data: attribute keys must not be empty");
     if (key.find('\0') != std::string::npos || value.find('\0') != std::string::npos) {
-      throw ConfigError(fmt::format("particle data: attribute '{}' contains a NUL character, which HDF5 strings cannot hold",
-                                    key.substr(0, key.find('\0'))));
+      throw ConfigError(
+          fmt::format("particle data: attribute '{}' contains a NUL character, which HDF5 strings cannot hold",
+                      key.substr(0, key.find('\0'))));
     }
   }
 
@@ -563,8 +579,8 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
     const std::vector<long long> values = readIntegers(ctx, f, "/box/periodic", 3);
     for (int k = 0; k < 3; ++k) {
       if (values[std::size_t(k)] != 0 && values[std::size_t(k)] != 1) {
-        ctx.fail(datasetLabel("/box/periodic"), fmt::format("entry {} ({}) must be 1 (periodic) or 0 (wall), got {}",
-                                                            k, kAxis[k], values[std::size_t(k)]));
+        ctx.fail(datasetLabel("/box/periodic"), fmt::format("entry {} ({}) must be 1 (periodic) or 0 (wall), got {}", k,
+                                                            kAxis[k], values[std::size_t(k)]));
       }
       boundaries[std::size_t(k)] = values[std::size_t(k)] == 1 ? Boundary::Periodic : Boundary::Wall;
     }
@@ -599,13 +615,13 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
       }
       data.id[i] = static_cast<Index>(ids[i]);
     }
-    std::vector<std::pair<Index, Index>> sorted(ids.size());  // (id, slot)
+    std::vector<std::pair<Index, Index> > sorted(ids.size());  // (id, slot)
     for (std::size_t i = 0; i < ids.size(); ++i) sorted[i] = {data.id[i], static_cast<Index>(i)};
     std::sort(sorted.begin(), sorted.end());
     for (std::size_t i = 1; i < sorted.size(); ++i) {
       if (sorted[i].first == sorted[i - 1].first) {
-        ctx.fail(datasetLabel("/particles/id"), fmt::format("id {} appears twice (particles {} and {})", sorted[i].first,
-                                                            sorted[i - 1].second, sorted[i].second));
+        ctx.fail(datasetLabel("/particles/id"), fmt::format("id {} appears twice (particles {} and {})",
+                                                            sorted[i].first, sorted[i - 1].second, sorted[i].second));
       }
     }
   }

@@ -13,8 +13,8 @@
 //   root attribute time   double (s); optional on read (0 if absent)
 //
 // The sidecar (xdmfPath(file), e.g. snap.h5 -> snap.xmf) is XDMF 3: a Polyvertex grid with one vertex
-// per particle, position as Geometry XYZ and radius, id, velocity, angular_velocity as node attributes. It refers to the
-// .h5 by file name only, so keep the two files side by side.
+// per particle, position as Geometry XYZ and radius, id, velocity, angular_velocity as node attributes. It refers to
+// the .h5 by file name only, so keep the two files side by side.
 //
 // Reading is strict, like text files: every problem throws InputError naming the file and the dataset
 // ("snap.h5: dataset /particles/radius: expected 100 entries, got 99"). HDF5's own error printing is
@@ -30,7 +30,8 @@ namespace polydem::io {
 /// Write `data` to `file` (replacing it) and the XDMF sidecar xdmfPath(file), each atomically (temporary
 /// beside it, renamed when complete) and byte-deterministic (no object time stamps: the same data gives
 /// the same bytes). Throws ConfigError if the arrays of `data` disagree in size, an attribute key is empty
-/// or `file` ends in .xmf; InputError if a file cannot be written. Values are stored as they are (no validation), positions bit-exact.
+/// or `file` ends in .xmf; InputError if a file cannot be written. Values are stored as they are (no validation),
+/// positions bit-exact.
 void writeSnapshot(const std::filesystem::path& file, const ParticleData& data);
 
 /// Read a snapshot written by writeSnapshot() (or any file with the same layout). Validates like

@@ -1,6 +1,7 @@
 #include "core/io/safe_output.hpp"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -9,8 +10,6 @@
 #include <cstring>
 #include <fstream>
 #include <system_error>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -39,8 +38,8 @@ void checkOutputPath(const fs::path& output, std::string_view what, std::span<co
   }
   const fs::path dir = output.parent_path().empty() ? fs::path(".") : output.parent_path();
   if (!fs::is_directory(dir, ec)) {
-    throw ConfigError(fmt::format("{} '{}': directory '{}' does not exist (create it first)", what,
-                                  output.string(), dir.string()));
+    throw ConfigError(
+        fmt::format("{} '{}': directory '{}' does not exist (create it first)", what, output.string(), dir.string()));
   }
   if (::access(dir.c_str(), W_OK | X_OK) != 0) {
     throw ConfigError(fmt::format("{} '{}': directory '{}' is not writable", what, output.string(), dir.string()));
@@ -85,8 +84,8 @@ void AtomicFile::commit() {
   ::fsync(fd);
   ::close(fd);
   if (std::rename(temporary_.c_str(), final_.c_str()) != 0) {
-    throw InputError(fmt::format("{}: cannot rename {} to it: {}", final_.string(), temporary_.string(),
-                                 std::strerror(errno)));
+    throw InputError(
+        fmt::format("{}: cannot rename {} to it: {}", final_.string(), temporary_.string(), std::strerror(errno)));
   }
   committed_ = true;
 }

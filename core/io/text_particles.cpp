@@ -5,6 +5,8 @@
 // locale and accepts trailing garbage ("1.5abc" reads as 1.5).
 #include "core/io/text_particles.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
@@ -15,8 +17,6 @@
 #include <limits>
 #include <string_view>
 #include <system_error>
-
-#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/io/safe_output.hpp"
@@ -101,11 +101,21 @@ std::string quote(std::string_view text) {
   for (char ch : text) {
     const auto c = static_cast<unsigned char>(ch);
     switch (ch) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\r': out += "\\r"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\r':
+        out += "\\r";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (c < 0x20 || c == 0x7f) {
           out += fmt::format("\\x{:02x}", c);
@@ -202,8 +212,8 @@ class TextReader {
       if (sorted[i].first == sorted[i - 1].first) {
         const std::size_t a = std::min(sorted[i - 1].second, sorted[i].second);
         const std::size_t b = std::max(sorted[i - 1].second, sorted[i].second);
-        fail(idLine_[b], fmt::format("column 1 (id): id {} appears twice (also on line {})", sorted[i].first,
-                                     idLine_[a]));
+        fail(idLine_[b],
+             fmt::format("column 1 (id): id {} appears twice (also on line {})", sorted[i].first, idLine_[a]));
       }
     }
   }
@@ -244,8 +254,8 @@ class TextReader {
     std::vector<std::string_view> words;
     splitWhitespace(rest, words);
     if (words.size() != 3) {
-      fail(lineNumber_, fmt::format("boundaries comment: expected 3 words (periodic|wall for x y z), got {}",
-                                    words.size()));
+      fail(lineNumber_,
+           fmt::format("boundaries comment: expected 3 words (periodic|wall for x y z), got {}", words.size()));
     }
     for (int k = 0; k < 3; ++k) {
       if (words[k] == "periodic") {
@@ -304,8 +314,8 @@ class TextReader {
       std::size_t end = 0;
       while (end < text.size() && !(stopAtEquals && (isSpace(text[end]) || text[end] == '='))) {
         if (text[end] == '"') {
-          fail(lineNumber_, fmt::format("attribute comment: {}: a '\"' inside a bare word; quote the whole {}", what,
-                                        what));
+          fail(lineNumber_,
+               fmt::format("attribute comment: {}: a '\"' inside a bare word; quote the whole {}", what, what));
         }
         ++end;
       }
@@ -326,11 +336,21 @@ class TextReader {
       if (i >= text.size()) fail(lineNumber_, fmt::format("attribute comment: {}: missing closing '\"'", what));
       const char e = text[i++];
       switch (e) {
-        case '"': out += '"'; break;
-        case '\\': out += '\\'; break;
-        case 'n': out += '\n'; break;
-        case 'r': out += '\r'; break;
-        case 't': out += '\t'; break;
+        case '"':
+          out += '"';
+          break;
+        case '\\':
+          out += '\\';
+          break;
+        case 'n':
+          out += '\n';
+          break;
+        case 'r':
+          out += '\r';
+          break;
+        case 't':
+          out += '\t';
+          break;
         case 'x': {
           const int hi = i < text.size() ? hexDigit(text[i]) : -1;
           const int lo = i + 1 < text.size() ? hexDigit(text[i + 1]) : -1;
@@ -364,8 +384,8 @@ class TextReader {
     if (text.starts_with('"')) {
       value = parseString(text, "value", false);
       if (!trim(text).empty()) {
-        fail(lineNumber_, fmt::format("attribute comment: text {} after the closing quote of the value",
-                                      formatToken(trim(text))));
+        fail(lineNumber_,
+             fmt::format("attribute comment: text {} after the closing quote of the value", formatToken(trim(text))));
       }
     } else {
       value = std::string(trim(text));
@@ -387,12 +407,12 @@ class TextReader {
     const std::string_view n = tokens[0];
     const auto [end, ec] = std::from_chars(n.data(), n.data() + n.size(), count);
     if (ec != std::errc() || end != n.data() + n.size()) {
-      fail(lineNumber_, fmt::format("header column 1 (N): particle count must be a non-negative integer, got {}",
-                                    formatToken(n)));
+      fail(lineNumber_,
+           fmt::format("header column 1 (N): particle count must be a non-negative integer, got {}", formatToken(n)));
     }
     if (count < 0) {
-      fail(lineNumber_, fmt::format("header column 1 (N): particle count must be a non-negative integer, got {}",
-                                    count));
+      fail(lineNumber_,
+           fmt::format("header column 1 (N): particle count must be a non-negative integer, got {}", count));
     }
     if (count > std::numeric_limits<Index>::max()) {
       fail(lineNumber_, fmt::format("header column 1 (N): particle count {} exceeds the maximum {}", count,
@@ -406,12 +426,12 @@ class TextReader {
       const Parsed parsed = parseDouble(token);
       const std::string_view column = kHeaderColumnName[k + 1];
       if (parsed.status == Parsed::Unparsable) {
-        fail(lineNumber_, fmt::format("header column {} ({}): cannot parse {} as a number", k + 2, column,
-                                      formatToken(token)));
+        fail(lineNumber_,
+             fmt::format("header column {} ({}): cannot parse {} as a number", k + 2, column, formatToken(token)));
       }
       if (parsed.status == Parsed::OutOfRange || !(std::isfinite(parsed.value) && parsed.value > 0.0)) {
-        fail(lineNumber_, fmt::format("header column {} ({}): box length must be positive and finite, got {}",
-                                      k + 2, column, formatToken(token)));
+        fail(lineNumber_, fmt::format("header column {} ({}): box length must be positive and finite, got {}", k + 2,
+                                      column, formatToken(token)));
       }
       lengths[k] = parsed.value;
     }
@@ -450,8 +470,8 @@ class TextReader {
         fail(lineNumber_, fmt::format("expected {} columns (as declared on line {}), got {}", columns_.size(),
                                       columnsLine_, tokens.size()));
       }
-      fail(lineNumber_, fmt::format("expected {} columns (as on line {}), got {}", columns_.size(), firstDataLine_,
-                                    tokens.size()));
+      fail(lineNumber_,
+           fmt::format("expected {} columns (as on line {}), got {}", columns_.size(), firstDataLine_, tokens.size()));
     }
 
     double values[kMaxColumns] = {};
@@ -467,8 +487,8 @@ class TextReader {
         fail(lineNumber_, fmt::format("column {} ({}): cannot parse {} as a number", c + 1, name, formatToken(token)));
       }
       if (parsed.status == Parsed::OutOfRange) {
-        fail(lineNumber_, fmt::format("column {} ({}): value {} is out of the range of a double", c + 1, name,
-                                      formatToken(token)));
+        fail(lineNumber_,
+             fmt::format("column {} ({}): value {} is out of the range of a double", c + 1, name, formatToken(token)));
       }
       if (!std::isfinite(parsed.value)) {
         fail(lineNumber_, fmt::format("column {} ({}): value {} is not finite", c + 1, name, formatToken(token)));
@@ -478,16 +498,16 @@ class TextReader {
     const std::size_t offset = has(Column::Id) ? 1 : 0;  // token index of x
     const double r = values[static_cast<int>(Column::R)];
     if (!(r > 0.0)) {
-      fail(lineNumber_, fmt::format("column {} (r): radius must be positive, got {}", offset + 4,
-                                    formatToken(tokens[offset + 3])));
+      fail(lineNumber_,
+           fmt::format("column {} (r): radius must be positive, got {}", offset + 4, formatToken(tokens[offset + 3])));
     }
     Eigen::Vector3d x(values[static_cast<int>(Column::X)], values[static_cast<int>(Column::Y)],
                       values[static_cast<int>(Column::Z)]);
     for (int k = 0; k < 3; ++k) {
       if (!box_.periodic(k) && !(x[k] >= 0.0 && x[k] <= box_.length(k))) {
-        fail(lineNumber_, fmt::format("column {} ({}): centre {} is outside the walled box [0, {}] along {}",
-                                      offset + k + 1, kColumnName[1 + k], formatToken(tokens[offset + k]),
-                                      box_.length(k), kAxis[k]));
+        fail(lineNumber_,
+             fmt::format("column {} ({}): centre {} is outside the walled box [0, {}] along {}", offset + k + 1,
+                         kColumnName[1 + k], formatToken(tokens[offset + k]), box_.length(k), kAxis[k]));
       }
     }
     x = box_.wrap(x);
@@ -570,7 +590,8 @@ void writeText(const std::filesystem::path& file, const ParticleData& data) {
   const bool withAngular = data.angularVelocity.has_value();
   fmt::memory_buffer buffer;
   auto sink = std::back_inserter(buffer);
-  fmt::format_to(sink, "# polydem particles (SI units): metadata comments, the header N Lx Ly Lz, one line per particle\n");
+  fmt::format_to(sink,
+                 "# polydem particles (SI units): metadata comments, the header N Lx Ly Lz, one line per particle\n");
   fmt::format_to(sink, "# columns: {}x y z r{}{}\n", withId ? "id " : "", withVelocity ? " vx vy vz" : "",
                  withAngular ? " wx wy wz" : "");
   fmt::format_to(sink, "# boundaries: {} {} {}\n", boundaryWord(box.boundary(0)), boundaryWord(box.boundary(1)),

@@ -2,8 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-
-#include "core/errors.hpp"
+#include <toml++/toml.h>
 
 #include <cmath>
 #include <fstream>
@@ -11,7 +10,7 @@
 #include <regex>
 #include <sstream>
 
-#include <toml++/toml.h>
+#include "core/errors.hpp"
 
 namespace polydem::app {
 namespace {
@@ -53,9 +52,9 @@ TEST(RelaxScene, MinimalSceneGetsTheDefaults) {
 }
 
 TEST(RelaxScene, OverridesAreTypedTomlValuesOrPlainWords) {
-  const RelaxScene s = parseRelaxScene(
-      kMinimal, {"run.steps=2000", "contact.restitution=0.5", "run.broadphase=brute", "run.gravity=[0, 0, -9.81]",
-                 "compression.packing_fraction=0.6", "run.dt_factor=100"});
+  const RelaxScene s =
+      parseRelaxScene(kMinimal, {"run.steps=2000", "contact.restitution=0.5", "run.broadphase=brute",
+                                 "run.gravity=[0, 0, -9.81]", "compression.packing_fraction=0.6", "run.dt_factor=100"});
   EXPECT_EQ(s.steps, 2000);
   EXPECT_EQ(s.dem.contact.restitution, 0.5);
   EXPECT_EQ(s.dem.broadPhase, "brute");
@@ -69,7 +68,8 @@ TEST(RelaxScene, OverridesAreTypedTomlValuesOrPlainWords) {
 
 TEST(RelaxScene, UnknownAndMissingKeysAreNamed) {
   EXPECT_THAT(configError(kMinimal, {"run.stpes=5"}), HasSubstr("unknown key run.stpes"));
-  EXPECT_THAT(configError(std::string(kMinimal) + "[outptu]\nfinal = \"x\"\n"), HasSubstr("unknown section or key 'outptu'"));
+  EXPECT_THAT(configError(std::string(kMinimal) + "[outptu]\nfinal = \"x\"\n"),
+              HasSubstr("unknown section or key 'outptu'"));
   EXPECT_THAT(configError("[particles]\ncount = 10\n[run]\nsteps = 1\n"), HasSubstr("missing section [contact]"));
   EXPECT_THAT(configError("[particles]\ncount = 10\n[contact]\nrestitution = 0.5\n[run]\nsteps = 1\n"),
               HasSubstr("missing required key contact.stiffness"));
@@ -111,7 +111,6 @@ TEST(RelaxScene, ExampleSceneParses) {
   EXPECT_EQ(s.dem.contact.restitution, 0.9);
   EXPECT_EQ(s.dem.threads, 1);
 }
-
 
 /// "section.key" -> the default a scene text states for it: `key = value` or `# key = value` lines,
 /// a "# default = X" comment overriding the value, "# required..." marking keys without a default.

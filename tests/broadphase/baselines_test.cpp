@@ -1,8 +1,8 @@
 // Backend-specific checks for the baseline broad phases (sweep and prune, CGAL box intersection,
 // CGAL regular triangulation). Agreement with brute force on general scenes is the property suite's job.
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <random>
 
 #include "broadphase/brute_force.hpp"
 #include "broadphase/registry.hpp"

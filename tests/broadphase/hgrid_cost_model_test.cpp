@@ -604,10 +604,10 @@ TEST(AutoSelect, KeepsLinkedCellUnlessTheHGridSavesMoreThanItsOverhead) {
     a.build(scene.spheres(), scene.box, 0.1 * scene.minRadius());
     return std::string(a.chosen()->name());
   };
-  const test::Scene us = test::makeScene({.count = 20000, .distribution = "uniform-radius", .sizeRatio = 10.0,
-                                          .packing = 0.5, .seed = 3});
-  const test::Scene uv = test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 10.0,
-                                          .packing = 0.5, .seed = 3});
+  const test::Scene us =
+      test::makeScene({.count = 20000, .distribution = "uniform-radius", .sizeRatio = 10.0, .packing = 0.5, .seed = 3});
+  const test::Scene uv =
+      test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.5, .seed = 3});
   EXPECT_EQ(chosenName(us, broadphase::AutoSelect::kDefaultHierarchyOverhead), "linked-cell");
   EXPECT_EQ(chosenName(uv, broadphase::AutoSelect::kDefaultHierarchyOverhead), "hgrid-td");
   EXPECT_EQ(chosenName(us, 1.0), "hgrid-td");
@@ -618,4 +618,3 @@ TEST(AutoSelect, KeepsLinkedCellUnlessTheHGridSavesMoreThanItsOverhead) {
 
 }  // namespace
 }  // namespace polydem::broadphase
-

@@ -1,12 +1,12 @@
 // HGrid-specific tests; the property suite (property_test.cpp) runs both variants with default sizes.
 #include "broadphase/hgrid.hpp"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <map>
 #include <random>
 #include <tuple>
-
-#include <gtest/gtest.h>
 
 #include "broadphase/brute_force.hpp"
 #include "core/errors.hpp"
@@ -129,10 +129,10 @@ struct HandCase {
 
 std::vector<HandCase> handCases() {
   return {
-      {100.0, 0.3, true, {2.0, 7.0, 20.0, 55.0, 200.0}},      // non-doubling
+      {100.0, 0.3, true, {2.0, 7.0, 20.0, 55.0, 200.0}},  // non-doubling
       {100.0, 0.3, false, {2.0, 7.0, 20.0, 55.0, 200.0}},
-      {100.0, 0.3, true, {200.0}},                            // one level: linked cell
-      {100.0, 0.3, false, {2.0, 200.0}},                      // two levels
+      {100.0, 0.3, true, {200.0}},                              // one level: linked cell
+      {100.0, 0.3, false, {2.0, 200.0}},                        // two levels
       {100.0, 0.3, true, {3.0, 3.5, 4.0, 90.0, 150.0, 400.0}},  // uneven, top level far above 2 r_max
       {100.0, 0.3, false, {1.0, 1.5, 2.5, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 201.0}},  // empty bottom levels
       {1000.0, 0.2, true, {2.0, 10.0, 100.0, 2000.0}},
@@ -145,8 +145,11 @@ std::vector<HandCase> handCases() {
 TEST(HGridAgreement, UniformVolumeHandSetSizesMatchBruteForce) {
   for (const HandCase& c : handCases()) {
     for (std::uint64_t seed : {1u, 2u}) {
-      const test::Scene scene = test::makeScene({.count = 3000, .distribution = "uniform-volume",
-                                                 .sizeRatio = c.omega, .packing = c.packing, .periodic = c.periodic,
+      const test::Scene scene = test::makeScene({.count = 3000,
+                                                 .distribution = "uniform-volume",
+                                                 .sizeRatio = c.omega,
+                                                 .packing = c.packing,
+                                                 .periodic = c.periodic,
                                                  .seed = seed});
       for (double skin : {0.0, 0.4}) {
         const auto expected = bruteForcePairs(scene, skin);
@@ -206,7 +209,8 @@ TEST(HGridAgreement, CoarseLevelsAndThinBoxes) {
     for (double skin : {0.0, 0.1}) {
       const auto expected = bruteForcePairs(s, skin);
       for (const auto& storage : kStorage) {
-        SCOPED_TRACE(::testing::Message() << s.box.describe() << " skin " << skin << " storage " << storage[0] << "/" << storage[1]);
+        SCOPED_TRACE(::testing::Message()
+                     << s.box.describe() << " skin " << skin << " storage " << storage[0] << "/" << storage[1]);
         HGridTopDown td;
         td.setConfig(sizes(c.cellSizes));
         td.setStorageLimits(storage[0], storage[1]);
@@ -272,8 +276,12 @@ TEST(HGridAgreement, CentresOnCellFacesOfEveryLevel) {
 }
 
 TEST(HGridAgreement, DefaultSizesOnWidePowerLaw) {
-  const test::Scene scene = test::makeScene(
-      {.count = 4000, .distribution = "uniform-volume", .sizeRatio = 50.0, .packing = 0.3, .periodic = false, .seed = 8});
+  const test::Scene scene = test::makeScene({.count = 4000,
+                                             .distribution = "uniform-volume",
+                                             .sizeRatio = 50.0,
+                                             .packing = 0.3,
+                                             .periodic = false,
+                                             .seed = 8});
   for (double skin : {0.0, 0.5}) {
     const auto expected = bruteForcePairs(scene, skin);
     HGridTopDown td;
@@ -304,8 +312,8 @@ TEST(HGridConfiguration, DefaultSizesDoubleUpToTheLargestInteractionDiameter) {
   EXPECT_EQ(td.config().mode, CrossLevel::TopDown);
   EXPECT_NE(td.describe().find("hgrid-td L=1 sizes 2.2 (snapped"), std::string::npos) << td.describe();
 
-  const test::Scene wide = test::makeScene(
-      {.count = 2000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 2});
+  const test::Scene wide =
+      test::makeScene({.count = 2000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 2});
   HGridBottomUp bu;
   bu.build(wide.spheres(), wide.box, 0.2);
   EXPECT_EQ(bu.config().cellSizes,
@@ -355,8 +363,8 @@ TEST(HGridConfiguration, ExplicitSizesAreValidated) {
 }
 
 TEST(HGridConfiguration, ConfiguratorIsCalledWhenNoExplicitSizes) {
-  const test::Scene scene = test::makeScene(
-      {.count = 2000, .distribution = "uniform-volume", .sizeRatio = 20.0, .packing = 0.3, .seed = 5});
+  const test::Scene scene =
+      test::makeScene({.count = 2000, .distribution = "uniform-volume", .sizeRatio = 20.0, .packing = 0.3, .seed = 5});
   const double skin = 0.3;
   const double top = 2.0 * scene.radius.maxCoeff() + skin;
   int calls = 0;
@@ -477,55 +485,55 @@ std::vector<LevelCount> expectedCounts(const Grid& grid, const test::Scene& s, d
 TEST(HGridCounters, MatchThePerSphereCostModelDefinitions) {
   // Random overlapping centres in a periodic box (the cost model's ensemble), every level occupied and
   // at least 3 cells wide, so each sphere makes exactly 1 + 13 same-level look-ups.
-  const test::Scene scene = test::makeScene(
-      {.count = 6000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.3, .seed = 21});
+  const test::Scene scene =
+      test::makeScene({.count = 6000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.3, .seed = 21});
   const double skin = 0.2;
   // The second set puts only the smallest ~1% of the spheres on level 1, so Top-Down boxes there have
   // more cells than the level has occupied cells (the grid then tests occupied cells against the box).
-  for (const std::vector<double>& s : {std::vector<double>{2.5, 4.0, 7.0, 12.0, 20.2},
-                                       std::vector<double>{2.21, 4.0, 7.0, 12.0, 20.2}})
-  for (bool topDown : {true, false}) {
-    for (const auto& storage : kStorage) {
-      SCOPED_TRACE(::testing::Message() << (topDown ? "TD" : "BU") << " storage " << storage[0] << "/" << storage[1]
-                                        << " s_1 " << s[0]);
-      std::vector<Pair> counted, plain;
-      std::vector<LevelCount> expected;
-      std::vector<Counters> got;
-      Counters total;
-      auto run = [&](auto& grid) {
-        grid.setConfig(sizes(s));
-        grid.setStorageLimits(storage[0], storage[1]);
-        grid.build(scene.spheres(), scene.box, skin);
-        grid.findPairs(scene.spheres(), plain);
-        EXPECT_EQ(grid.counters().cellAccesses, 0u);  // counting off: nothing counted
-        grid.setCounting(true);
-        grid.findPairs(scene.spheres(), counted);
-        for (int h = 1; h <= grid.levelCount(); ++h) ASSERT_GT(grid.levelInfo(h).spheres, 0) << "level " << h;
-        expected = expectedCounts(grid, scene, skin, topDown);
-        got = grid.levelCounters();
-        total = grid.counters();
-      };
-      if (topDown) {
-        HGridTopDown g;
-        run(g);
-      } else {
-        HGridBottomUp g;
-        run(g);
+  for (const std::vector<double>& s :
+       {std::vector<double>{2.5, 4.0, 7.0, 12.0, 20.2}, std::vector<double>{2.21, 4.0, 7.0, 12.0, 20.2}})
+    for (bool topDown : {true, false}) {
+      for (const auto& storage : kStorage) {
+        SCOPED_TRACE(::testing::Message()
+                     << (topDown ? "TD" : "BU") << " storage " << storage[0] << "/" << storage[1] << " s_1 " << s[0]);
+        std::vector<Pair> counted, plain;
+        std::vector<LevelCount> expected;
+        std::vector<Counters> got;
+        Counters total;
+        auto run = [&](auto& grid) {
+          grid.setConfig(sizes(s));
+          grid.setStorageLimits(storage[0], storage[1]);
+          grid.build(scene.spheres(), scene.box, skin);
+          grid.findPairs(scene.spheres(), plain);
+          EXPECT_EQ(grid.counters().cellAccesses, 0u);  // counting off: nothing counted
+          grid.setCounting(true);
+          grid.findPairs(scene.spheres(), counted);
+          for (int h = 1; h <= grid.levelCount(); ++h) ASSERT_GT(grid.levelInfo(h).spheres, 0) << "level " << h;
+          expected = expectedCounts(grid, scene, skin, topDown);
+          got = grid.levelCounters();
+          total = grid.counters();
+        };
+        if (topDown) {
+          HGridTopDown g;
+          run(g);
+        } else {
+          HGridBottomUp g;
+          run(g);
+        }
+        EXPECT_EQ(counted, plain);
+        ASSERT_EQ(got.size(), expected.size());
+        Counters sum;
+        for (std::size_t h = 0; h < got.size(); ++h) {
+          EXPECT_EQ(got[h].cellAccesses, expected[h].cellAccesses) << "level " << h + 1;
+          EXPECT_EQ(got[h].pairTests, expected[h].pairTests) << "level " << h + 1;
+          sum.cellAccesses += got[h].cellAccesses;
+          sum.pairTests += got[h].pairTests;
+        }
+        EXPECT_EQ(sum.cellAccesses, total.cellAccesses);
+        EXPECT_EQ(sum.pairTests, total.pairTests);
+        EXPECT_GE(total.pairTests, counted.size());
       }
-      EXPECT_EQ(counted, plain);
-      ASSERT_EQ(got.size(), expected.size());
-      Counters sum;
-      for (std::size_t h = 0; h < got.size(); ++h) {
-        EXPECT_EQ(got[h].cellAccesses, expected[h].cellAccesses) << "level " << h + 1;
-        EXPECT_EQ(got[h].pairTests, expected[h].pairTests) << "level " << h + 1;
-        sum.cellAccesses += got[h].cellAccesses;
-        sum.pairTests += got[h].pairTests;
-      }
-      EXPECT_EQ(sum.cellAccesses, total.cellAccesses);
-      EXPECT_EQ(sum.pairTests, total.pairTests);
-      EXPECT_GE(total.pairTests, counted.size());
     }
-  }
 }
 
 // Mean cross-level box width per axis is 2 beta / s' + 1 (digest §2.4 with the skin and snapping).
@@ -546,8 +554,12 @@ TEST(HGridCounters, MeanSearchBoxWidthPerAxis) {
 // Neighbour queries, incremental updates, memory
 
 TEST(HGridQueries, NeighboursMatchBruteForceOnBothVariants) {
-  const test::Scene scene = test::makeScene(
-      {.count = 2000, .distribution = "uniform-volume", .sizeRatio = 60.0, .packing = 0.3, .periodic = true, .seed = 6});
+  const test::Scene scene = test::makeScene({.count = 2000,
+                                             .distribution = "uniform-volume",
+                                             .sizeRatio = 60.0,
+                                             .packing = 0.3,
+                                             .periodic = true,
+                                             .seed = 6});
   const double skin = 0.6;
   BruteForce brute;
   brute.build(scene.spheres(), scene.box, skin);
@@ -571,8 +583,12 @@ TEST(HGridQueries, NeighboursMatchBruteForceOnBothVariants) {
 
 TEST(HGridUpdate, MovesWithinAndAcrossCellsUseTheOverflow) {
   for (bool periodic : {true, false}) {
-    test::Scene scene = test::makeScene({.count = 3000, .distribution = "uniform-volume", .sizeRatio = 20.0,
-                                         .packing = 0.3, .periodic = periodic, .seed = 12});
+    test::Scene scene = test::makeScene({.count = 3000,
+                                         .distribution = "uniform-volume",
+                                         .sizeRatio = 20.0,
+                                         .packing = 0.3,
+                                         .periodic = periodic,
+                                         .seed = 12});
     const double skin = 0.4;
     HGridTopDown td;
     HGridBottomUp bu;
@@ -626,8 +642,8 @@ TEST(HGridUpdate, MovesWithinAndAcrossCellsUseTheOverflow) {
     fresh.build(scene.spheres(), scene.box, skin);
     for (Index i = 0; i < 3000; ++i) {
       const Eigen::Vector3d x = scene.centre.col(i);
-      scene.centre.col(i) = periodic ? scene.box.wrap(x + scene.box.lengths() / 3.0)
-                                     : Eigen::Vector3d(scene.box.lengths() - x);
+      scene.centre.col(i) =
+          periodic ? scene.box.wrap(x + scene.box.lengths() / 3.0) : Eigen::Vector3d(scene.box.lengths() - x);
     }
     fresh.update(scene.spheres(), all);
     fresh.validate(scene.spheres());
@@ -671,8 +687,8 @@ TEST(HGridMemory, DiluteHugeBoxStaysLinearInN) {
 }
 
 TEST(HGridMemory, SteadyStateRebuildsReuseBuffers) {
-  const test::Scene scene = test::makeScene(
-      {.count = 5000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 9});
+  const test::Scene scene =
+      test::makeScene({.count = 5000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 9});
   HGridTopDown td;
   std::vector<Pair> pairs;
   td.build(scene.spheres(), scene.box, 0.1);

@@ -3,11 +3,11 @@
 // model's own ensemble: centres uniformly random (no excluded volume), periodic box, cells snapped to
 // divide the box. Issue 3 asks for agreement within 5% on the seed's distributions; the optimiser's
 // cell sizes (K = 0.2) are used for each case, in both cross-level modes.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <iostream>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"
@@ -64,7 +64,8 @@ TEST_P(ModelVsCount, CountedWorkWithinFivePercentOfModel) {
     options.mode = mode;
     options.maxLevels = 12;
     const OptimiserResult opt = optimiseHGrid(psd, options);
-    std::vector<double> sizes = opt.chosen.linkedCell ? std::vector<double>{psd.maxDiameter()} : opt.chosen.config.cellSizes;
+    std::vector<double> sizes =
+        opt.chosen.linkedCell ? std::vector<double>{psd.maxDiameter()} : opt.chosen.config.cellSizes;
     Counters counted;
     std::vector<Pair> pairs;
     auto run = [&](auto& grid) {
@@ -84,23 +85,23 @@ TEST_P(ModelVsCount, CountedWorkWithinFivePercentOfModel) {
     const CostBreakdown model = costBreakdown(psd, snappedGeometry(sizes, scene.box.lengths()), mode, 0.2, true);
     const double tcd = static_cast<double>(counted.pairTests) / n;
     const double tca = static_cast<double>(counted.cellAccesses) / n;
-    std::cout << "[          ] " << caseName({c, 0}) << (mode == CrossLevel::TopDown ? " TD" : " BU") << " L="
-              << sizes.size() << ": T_cd/N counted " << tcd << " model " << model.pairTests << "; T_ca/N counted "
-              << tca << " model " << model.cellAccesses << "\n";
+    std::cout << "[          ] " << caseName({c, 0}) << (mode == CrossLevel::TopDown ? " TD" : " BU")
+              << " L=" << sizes.size() << ": T_cd/N counted " << tcd << " model " << model.pairTests
+              << "; T_ca/N counted " << tca << " model " << model.cellAccesses << "\n";
     EXPECT_NEAR(tcd / model.pairTests, 1.0, 0.05);
     EXPECT_NEAR(tca / model.cellAccesses, 1.0, 0.05);
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    SeedDistributions, ModelVsCount,
-    ::testing::Values(ModelCase{"mono", 1, 0}, ModelCase{"bi", 2, 0}, ModelCase{"bi", 10, 0},
-                      ModelCase{"uniform-radius", 2, 0}, ModelCase{"uniform-radius", 10, 0},
-                      ModelCase{"uniform-radius", 100, 0}, ModelCase{"uniform-volume", 2, 0},
-                      ModelCase{"uniform-volume", 10, 0}, ModelCase{"uniform-volume", 50, 0},
-                      ModelCase{"uniform-volume", 100, 0}, ModelCase{"power-law", 10, -2},
-                      ModelCase{"power-law", 100, -2}, ModelCase{"power-law", 10, -4}, ModelCase{"power-law", 100, -4}),
-    caseName);
+INSTANTIATE_TEST_SUITE_P(SeedDistributions, ModelVsCount,
+                         ::testing::Values(ModelCase{"mono", 1, 0}, ModelCase{"bi", 2, 0}, ModelCase{"bi", 10, 0},
+                                           ModelCase{"uniform-radius", 2, 0}, ModelCase{"uniform-radius", 10, 0},
+                                           ModelCase{"uniform-radius", 100, 0}, ModelCase{"uniform-volume", 2, 0},
+                                           ModelCase{"uniform-volume", 10, 0}, ModelCase{"uniform-volume", 50, 0},
+                                           ModelCase{"uniform-volume", 100, 0}, ModelCase{"power-law", 10, -2},
+                                           ModelCase{"power-law", 100, -2}, ModelCase{"power-law", 10, -4},
+                                           ModelCase{"power-law", 100, -4}),
+                         caseName);
 
 }  // namespace
 }  // namespace polydem::broadphase

@@ -1,9 +1,9 @@
 // The property suite every broad-phase backend runs through: identical pair sets to brute force on
 // random and adversarial inputs. A new backend joins by being listed in broadphase/registry.cpp.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "broadphase/brute_force.hpp"
 #include "broadphase/registry.hpp"
@@ -35,12 +35,18 @@ struct RandomCase {
 
 std::vector<RandomCase> randomCases() {
   return {
-      {"mono", 1.0, 0.55, true, 2000},          {"mono", 1.0, 0.05, false, 2000},
-      {"mono", 1.0, 0.30, false, 1500},         {"bi", 10.0, 0.40, true, 2000},
-      {"bi", 10.0, 0.40, false, 2000},          {"uniform-radius", 50.0, 0.3, true, 2000},
-      {"uniform-volume", 10.0, 0.50, true, 3000}, {"uniform-volume", 100.0, 0.30, true, 3000},
-      {"uniform-volume", 100.0, 0.30, false, 3000}, {"uniform-volume", 1000.0, 0.20, false, 3000},
-      {"uniform-volume", 1000.0, 0.05, true, 2000}, {"power-law", 30.0, 0.35, true, 2000},
+      {"mono", 1.0, 0.55, true, 2000},
+      {"mono", 1.0, 0.05, false, 2000},
+      {"mono", 1.0, 0.30, false, 1500},
+      {"bi", 10.0, 0.40, true, 2000},
+      {"bi", 10.0, 0.40, false, 2000},
+      {"uniform-radius", 50.0, 0.3, true, 2000},
+      {"uniform-volume", 10.0, 0.50, true, 3000},
+      {"uniform-volume", 100.0, 0.30, true, 3000},
+      {"uniform-volume", 100.0, 0.30, false, 3000},
+      {"uniform-volume", 1000.0, 0.20, false, 3000},
+      {"uniform-volume", 1000.0, 0.05, true, 2000},
+      {"power-law", 30.0, 0.35, true, 2000},
       {"log-normal", 20.0, 0.30, true, 2000},
   };
 }
@@ -51,13 +57,16 @@ TEST_P(BackendProperty, RandomScenesMatchBruteForce) {
   const std::string backend = GetParam();
   for (const RandomCase& c : randomCases()) {
     for (std::uint64_t seed : {1u, 2u}) {
-      const test::Scene scene = test::makeScene(
-          {.count = c.count, .distribution = c.distribution, .sizeRatio = c.sizeRatio, .packing = c.packing,
-           .periodic = c.periodic, .seed = seed});
+      const test::Scene scene = test::makeScene({.count = c.count,
+                                                 .distribution = c.distribution,
+                                                 .sizeRatio = c.sizeRatio,
+                                                 .packing = c.packing,
+                                                 .periodic = c.periodic,
+                                                 .seed = seed});
       for (double skinFactor : {0.0, 0.3}) {
-        SCOPED_TRACE(::testing::Message() << c.distribution << " omega " << c.sizeRatio << " nu " << c.packing
-                                          << (c.periodic ? " periodic" : " walled") << " seed " << seed << " skin "
-                                          << skinFactor);
+        SCOPED_TRACE(::testing::Message()
+                     << c.distribution << " omega " << c.sizeRatio << " nu " << c.packing
+                     << (c.periodic ? " periodic" : " walled") << " seed " << seed << " skin " << skinFactor);
         const double skin = skinFactor * scene.minRadius();
         const auto expected = run("brute", scene, skin);
         if (c.packing > 0.1) {
@@ -158,8 +167,8 @@ TEST_P(BackendProperty, PeriodicImagesAcrossEveryFace) {
 TEST_P(BackendProperty, MixedBoundariesAndThinBoxes) {
   const std::string backend = GetParam();
   // Boxes with one or two cells per axis on some axes (few cells than the stencil).
-  for (const Eigen::Vector3d& lengths : {Eigen::Vector3d(4.5, 30.0, 30.0), Eigen::Vector3d(5.0, 5.0, 40.0),
-                                        Eigen::Vector3d(2.0, 2.0, 2.0)}) {
+  for (const Eigen::Vector3d& lengths :
+       {Eigen::Vector3d(4.5, 30.0, 30.0), Eigen::Vector3d(5.0, 5.0, 40.0), Eigen::Vector3d(2.0, 2.0, 2.0)}) {
     for (const auto boundaries : {std::array{Boundary::Periodic, Boundary::Wall, Boundary::Periodic},
                                   std::array{Boundary::Wall, Boundary::Wall, Boundary::Wall}}) {
       if (lengths.minCoeff() < 4.4 && boundaries[0] == Boundary::Periodic) continue;

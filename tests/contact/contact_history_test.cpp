@@ -1,8 +1,8 @@
 #include "contact/contact_history.hpp"
 
-#include <vector>
-
 #include <gtest/gtest.h>
+
+#include <vector>
 
 #include "contact/contact_list.hpp"
 

@@ -1,8 +1,8 @@
 #include "contact/contact_law.hpp"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "core/errors.hpp"
 

@@ -1,11 +1,11 @@
 #include "contact/force_loop.hpp"
 
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 #include <cmath>
 #include <limits>
 #include <random>
-
-#include <Eigen/Geometry>
-#include <gtest/gtest.h>
 
 #include "broadphase/registry.hpp"
 #include "polydem/config.hpp"
@@ -23,8 +23,12 @@ struct Fixture {
   Eigen::Matrix3Xd angularVelocity;
 
   explicit Fixture(bool periodic) {
-    scene = test::makeScene({.count = 400, .distribution = "uniform-radius", .sizeRatio = 3.0, .packing = 0.4,
-                             .periodic = periodic, .seed = 5});
+    scene = test::makeScene({.count = 400,
+                             .distribution = "uniform-radius",
+                             .sizeRatio = 3.0,
+                             .packing = 0.4,
+                             .periodic = periodic,
+                             .seed = 5});
     particles = ParticleStore(scene.spheres().count(), Features{.rotation = true});
     particles.position() = scene.centre;
     particles.radius() = scene.radius;
@@ -151,7 +155,8 @@ TEST(ContactList, BlocksSplitTheRowsAndListEveryCrossPairOnce) {
       EXPECT_GT(expected.size(), 0u);
     }
     for (Index b = 0; b < blocks; ++b) {
-      for (Index q = fx.list.crossStart[b]; q < fx.list.crossStart[b + 1]; ++q) EXPECT_EQ(blockOf(fx.list.crossRow[q]), b);
+      for (Index q = fx.list.crossStart[b]; q < fx.list.crossStart[b + 1]; ++q)
+        EXPECT_EQ(blockOf(fx.list.crossRow[q]), b);
       Index previous = -1;
       for (Index m = fx.list.targetOffset[b]; m < fx.list.targetOffset[b + 1]; ++m) {
         const Index q = fx.list.byTarget[m];
@@ -172,8 +177,8 @@ TEST(ForceLoop, ThreadedLoopIsBitIdenticalToTheSerialOne) {
   for (NormalModel normal : {NormalModel::Linear, NormalModel::Hertz}) {
     for (double friction : {0.0, 0.5}) {
       for (bool general : {false, true}) {
-        SCOPED_TRACE(::testing::Message() << "hertz " << (normal == NormalModel::Hertz) << " mu " << friction
-                                          << " general " << general);
+        SCOPED_TRACE(::testing::Message()
+                     << "hertz " << (normal == NormalModel::Hertz) << " mu " << friction << " general " << general);
         const ContactModel m = model(friction, normal);
         const ForceKernel k = selectForceKernel(m, KernelFlags{}, general);
         Fixture serial(false), threaded(false);

@@ -1,8 +1,8 @@
 #include "core/box.hpp"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "core/errors.hpp"
 

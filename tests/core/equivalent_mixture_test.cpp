@@ -194,9 +194,9 @@ TEST(EquivalentMixture, KurtosisFamily) {
 
 TEST(EquivalentMixture, WideDistributionsStayAccurate) {
   // UV omega = 100 and log-normal sigma = 1: the rule reproduces all six moments, positive nodes and weights.
-  for (const Moments& m :
-       {test::analyticMoments("uniform-volume", 100), test::analyticMoments("uniform-volume", 1000), test::analyticMoments("log-normal", 0, 1.0),
-        test::analyticMoments("log-normal", 0, 1.5), test::analyticMoments("power-law", 100)}) {
+  for (const Moments& m : {test::analyticMoments("uniform-volume", 100), test::analyticMoments("uniform-volume", 1000),
+                           test::analyticMoments("log-normal", 0, 1.0), test::analyticMoments("log-normal", 0, 1.5),
+                           test::analyticMoments("power-law", 100)}) {
     const Mixture tri = equivalentTridisperse(m);
     ASSERT_EQ(tri.size(), 3u);
     for (int k = 0; k <= 5; ++k) {

@@ -1,10 +1,12 @@
 #include "core/io/hdf5_snapshot.hpp"
-#include "core/io/particle_file.hpp"  // readParticles, writeText: the snapshot beside the other formats
 
-#include "polydem/config.hpp"
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -16,13 +18,9 @@
 #include <string>
 #include <vector>
 
-#include <gtest/gtest.h>
-#include <sys/resource.h>
-#include <unistd.h>
-
-#include <csignal>
-
 #include "core/errors.hpp"
+#include "core/io/particle_file.hpp"  // readParticles, writeText: the snapshot beside the other formats
+#include "polydem/config.hpp"
 
 #if POLYDEM_WITH_HDF5
 #include <hdf5.h>
@@ -37,8 +35,8 @@ class SnapshotTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string("polydem_h5_") + info->test_suite_name() + "_" + info->name() + "_" +
-                       std::to_string(::getpid());
+    std::string name =
+        std::string("polydem_h5_") + info->test_suite_name() + "_" + info->name() + "_" + std::to_string(::getpid());
     std::replace(name.begin(), name.end(), '/', '_');
     dir_ = fs::path(::testing::TempDir()) / name;
     fs::remove_all(dir_);
@@ -97,8 +95,8 @@ TEST_F(SnapshotTest, RoundTripIsBitExact) {
   data.position(0, 0) = 0.1;
   data.position(1, 1) = std::nextafter(data.box.length(1), 0.0);
   data.radius[2] = 4.9406564584124654e-324;
-  data.attributes = {{"packing", "0.64"}, {"law", "hertz <mindlin> & \"friends\""}, {"empty", ""},
-                     {"unicode", "\xce\xbc = 0.5"}};
+  data.attributes = {
+      {"packing", "0.64"}, {"law", "hertz <mindlin> & \"friends\""}, {"empty", ""}, {"unicode", "\xce\xbc = 0.5"}};
   const fs::path file = dir_ / "snap.h5";
   writeSnapshot(file, data);
   const ParticleData back = readSnapshot(file);
@@ -156,7 +154,7 @@ TEST_F(SnapshotTest, XdmfSidecarReferencesDatasets) {
 
 TEST_F(SnapshotTest, PeriodicCoordinatesAreWrappedOnRead) {
   ParticleData data = makeData(2, false, 4);
-  data.position(1, 0) = -0.25;                         // y is periodic
+  data.position(1, 0) = -0.25;  // y is periodic
   data.position(1, 1) = data.box.length(1) + 0.5;
   writeSnapshot(dir_ / "wrap.h5", data);
   const ParticleData back = readSnapshot(dir_ / "wrap.h5");
@@ -352,17 +350,24 @@ const Damage kDamages[] = {
        replaceDoubles(f, "/particles/radius", {100, 1}, r);
      },
      {"dataset /particles/radius: expected a 1-d array of 100 entries, got shape 100 x 1"}},
-    {"MissingRadius", [](hid_t f, const ParticleData&) { H5Ldelete(f, "/particles/radius", H5P_DEFAULT); },
+    {"MissingRadius",
+     [](hid_t f, const ParticleData&) { H5Ldelete(f, "/particles/radius", H5P_DEFAULT); },
      {"dataset /particles/radius: missing"}},
-    {"MissingParticlesGroup", [](hid_t f, const ParticleData&) { H5Ldelete(f, "/particles", H5P_DEFAULT); },
+    {"MissingParticlesGroup",
+     [](hid_t f, const ParticleData&) { H5Ldelete(f, "/particles", H5P_DEFAULT); },
      {"dataset /particles/position: missing"}},
-    {"MissingBox", [](hid_t f, const ParticleData&) { H5Ldelete(f, "/box/lengths", H5P_DEFAULT); },
+    {"MissingBox",
+     [](hid_t f, const ParticleData&) { H5Ldelete(f, "/box/lengths", H5P_DEFAULT); },
      {"dataset /box/lengths: missing"}},
     {"PositionTwoColumns",
-     [](hid_t f, const ParticleData&) { replaceDoubles(f, "/particles/position", {100, 2}, std::vector<double>(200, 0.01)); },
+     [](hid_t f, const ParticleData&) {
+       replaceDoubles(f, "/particles/position", {100, 2}, std::vector<double>(200, 0.01));
+     },
      {"dataset /particles/position: expected shape N x 3, got shape 100 x 2"}},
     {"LongVelocity",
-     [](hid_t f, const ParticleData&) { replaceDoubles(f, "/particles/velocity", {101, 3}, std::vector<double>(303, 0.0)); },
+     [](hid_t f, const ParticleData&) {
+       replaceDoubles(f, "/particles/velocity", {101, 3}, std::vector<double>(303, 0.0));
+     },
      {"dataset /particles/velocity: expected 100 rows of 3, got 101"}},
     {"ShortId",
      [](hid_t f, const ParticleData& data) {
@@ -435,9 +440,15 @@ const Damage kDamages[] = {
        replaceDoubles(f, "/particles/position", {100, 3}, x);
      },
      {"dataset /particles/position: particle 4", "outside the walled box [0, 0.1] along z"}},
-    {"ZeroBoxLength", [](hid_t f, const ParticleData&) { replaceDoubles(f, "/box/lengths", {3}, {10, 0, 1}); },
+    {"ZeroBoxLength",
+     [](hid_t f, const ParticleData&) {
+       replaceDoubles(f, "/box/lengths", {3}, {10, 0, 1});
+     },
      {"dataset /box/lengths: box length along y must be positive and finite, got 0"}},
-    {"BoxLengthsTwoEntries", [](hid_t f, const ParticleData&) { replaceDoubles(f, "/box/lengths", {2}, {10, 1}); },
+    {"BoxLengthsTwoEntries",
+     [](hid_t f, const ParticleData&) {
+       replaceDoubles(f, "/box/lengths", {2}, {10, 1});
+     },
      {"dataset /box/lengths: expected 3 entries, got 2"}},
     {"PeriodicFlagTwo",
      [](hid_t f, const ParticleData&) {

@@ -2,12 +2,12 @@
 // fraction, spheres inside walls, order of the output, the stall error and bad requests.
 #include "core/initial_configuration.hpp"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "core/errors.hpp"
 #include "core/size_distribution.hpp"

@@ -71,7 +71,8 @@ TEST(Moments, LogNormalClosedFormsAndDiameters) {
 
 TEST(Moments, BoundsHoldForEveryFamily) {
   std::vector<Moments> all = {test::analyticMoments("uniform-radius", 3), test::analyticMoments("uniform-volume", 30),
-                              test::analyticMoments("log-normal", 0, 0.7), test::analyticMoments("bi", 10), test::analyticMoments("power-law", 7)};
+                              test::analyticMoments("log-normal", 0, 0.7), test::analyticMoments("bi", 10),
+                              test::analyticMoments("power-law", 7)};
   for (const Moments& m : all) {
     EXPECT_GT(m.o1, 0.0);
     EXPECT_LT(m.o1, 1.0);

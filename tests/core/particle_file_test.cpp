@@ -1,21 +1,20 @@
 #include "core/io/particle_file.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdint>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
-#include <limits>
-#include <random>
-#include <string>
-
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cmath>
 #include <csignal>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <iterator>
+#include <limits>
+#include <random>
+#include <string>
 
 #include "core/errors.hpp"
 
@@ -29,8 +28,8 @@ class TextFileTest : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string("polydem_io_") + info->test_suite_name() + "_" + info->name() + "_" +
-                       std::to_string(::getpid());
+    std::string name =
+        std::string("polydem_io_") + info->test_suite_name() + "_" + info->name() + "_" + std::to_string(::getpid());
     std::replace(name.begin(), name.end(), '/', '_');  // parameterised test names contain '/'
     dir_ = fs::path(::testing::TempDir()) / name;
     fs::remove_all(dir_);
@@ -72,9 +71,8 @@ ParticleData randomData(Index n, bool withVelocity, std::uint64_t seed) {
 /// Bitwise equality, so -0.0 vs 0.0 or a last-bit difference fails.
 bool bitEqual(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   if (a.rows() != b.rows() || a.cols() != b.cols()) return false;
-  return std::equal(a.data(), a.data() + a.size(), b.data(), [](double x, double y) {
-    return std::memcmp(&x, &y, sizeof(double)) == 0;
-  });
+  return std::equal(a.data(), a.data() + a.size(), b.data(),
+                    [](double x, double y) { return std::memcmp(&x, &y, sizeof(double)) == 0; });
 }
 
 TEST_F(TextFileTest, RoundTripIsBitExactWithVelocities) {
@@ -401,9 +399,9 @@ TEST_F(TextFileTest, MissingFileNamesFile) {
 // Every malformed file: InputError "FILE:LINE: problem".
 
 struct BadFile {
-  std::string name;     // test name
-  std::string content;  // file content
-  int line;             // expected line in the message
+  std::string name;                  // test name
+  std::string content;               // file content
+  int line;                          // expected line in the message
   std::vector<std::string> problem;  // substrings the message must contain
 };
 
@@ -440,9 +438,13 @@ const BadFile kBadFiles[] = {
     {"UnparsableBoxLength", "1 1 1 1,5\n", 1, {"column 4 (Lz)", "cannot parse '1,5'"}},
     {"FiveColumns", "1 1 1 1\n0.5 0.5 0.5 0.1 7\n", 2, {"expected 4 columns (x y z r), 7", "or 10", "got 5"}},
     {"ThreeColumns", "1 1 1 1\n0.5 0.5 0.5\n", 2, {"expected 4 columns (x y z r), 7", "got 3"}},
-    {"MixedColumns", "2 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 0.1 0 0 0\n", 3,
+    {"MixedColumns",
+     "2 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 0.1 0 0 0\n",
+     3,
      {"expected 4 columns (as on line 2), got 7"}},
-    {"MixedColumnsVelocityFirst", "2 1 1 1\n\n0.5 0.5 0.5 0.1 0 0 0\n0.5 0.5 0.5 0.1\n", 4,
+    {"MixedColumnsVelocityFirst",
+     "2 1 1 1\n\n0.5 0.5 0.5 0.1 0 0 0\n0.5 0.5 0.5 0.1\n",
+     4,
      {"expected 7 columns (as on line 3), got 4"}},
     {"UnparsableY", "1 1 1 1\n0.5 0.5x 0.5 0.1\n", 2, {"column 2 (y)", "cannot parse '0.5x'"}},
     {"UnparsableVelocity", "1 1 1 1\n0.5 0.5 0.5 0.1 0 0 fast\n", 2, {"column 7 (vz)", "cannot parse 'fast'"}},
@@ -453,20 +455,32 @@ const BadFile kBadFiles[] = {
     {"UnderflowPosition", "1 1 1 1\n0.5 1e-400 0.5 0.1\n", 2, {"column 2 (y)", "'1e-400' is out of the range"}},
     {"NanVelocity", "1 1 1 1\n0.5 0.5 0.5 0.1 0 -nan 0\n", 2, {"column 6 (vy)", "not finite"}},
     {"ZeroRadius", "1 1 1 1\n0.5 0.5 0.5 0\n", 2, {"column 4 (r)", "radius must be positive", "'0'"}},
-    {"NegativeRadius", "2 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 -0.1\n", 3,
+    {"NegativeRadius",
+     "2 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 -0.1\n",
+     3,
      {"column 4 (r)", "radius must be positive", "'-0.1'"}},
-    {"OutsideWallAbove", "# boundaries: wall wall wall\n1 10 10 10\n10.5 5 5 0.1\n", 3,
+    {"OutsideWallAbove",
+     "# boundaries: wall wall wall\n1 10 10 10\n10.5 5 5 0.1\n",
+     3,
      {"column 1 (x)", "outside the walled box [0, 10] along x", "'10.5'"}},
-    {"OutsideWallBelow", "# boundaries: periodic periodic wall\n1 10 10 4\n50 -5 -0.001 0.1\n", 3,
+    {"OutsideWallBelow",
+     "# boundaries: periodic periodic wall\n1 10 10 4\n50 -5 -0.001 0.1\n",
+     3,
      {"column 3 (z)", "outside the walled box [0, 4] along z"}},
-    {"Truncated", "# three\n3 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 0.1\n# trailing comment\n", 5,
+    {"Truncated",
+     "# three\n3 1 1 1\n0.5 0.5 0.5 0.1\n0.5 0.5 0.5 0.1\n# trailing comment\n",
+     5,
      {"truncated", "expected 3 particles", "found 2", "header on line 2"}},
     {"TruncatedNoParticles", "2 1 1 1\n", 1, {"expected 2 particles", "found 0"}},
-    {"ExtraLine", "1 1 1 1\n0.5 0.5 0.5 0.1\n# ok so far\n0.5 0.5 0.5 0.1\n", 4,
+    {"ExtraLine",
+     "1 1 1 1\n0.5 0.5 0.5 0.1\n# ok so far\n0.5 0.5 0.5 0.1\n",
+     4,
      {"extra data", "declares N = 1, all already read"}},
     {"ExtraLineAfterEmpty", "0 1 1 1\n1\n", 2, {"extra data", "declares N = 0"}},
     {"BoundariesWrongCount", "# boundaries: wall wall\n1 1 1 1\n", 1, {"boundaries", "expected 3 words", "got 2"}},
-    {"BoundariesUnknownWord", "# boundaries: wall walls periodic\n1 1 1 1\n", 1,
+    {"BoundariesUnknownWord",
+     "# boundaries: wall walls periodic\n1 1 1 1\n",
+     1,
      {"boundaries", "unknown boundary 'walls' along y"}},
     {"TimeTwice", "# time: 1\n# time: 2\n1 1 1 1\n0.5 0.5 0.5 0.1\n", 2, {"time given twice (first on line 1)"}},
     {"TimeNotANumber", "# time: soon\n0 1 1 1\n", 1, {"time comment", "finite number", "'soon'"}},
@@ -484,18 +498,28 @@ const BadFile kBadFiles[] = {
     {"ColumnsUnknown", "# columns: x y z radius\n0 1 1 1\n", 1, {"columns comment", "expected [id] x y z r"}},
     {"ColumnsOutOfOrder", "# columns: x y z r wx wy wz vx vy vz\n0 1 1 1\n", 1, {"columns comment", "'vx' at word 8"}},
     {"ColumnsPartial", "# columns: x y z r vx vy\n0 1 1 1\n", 1, {"columns comment", "the end at word 7"}},
-    {"ColumnsCountMismatch", "# columns: id x y z r\n1 1 1 1\n0.5 0.5 0.5 0.1\n", 3,
+    {"ColumnsCountMismatch",
+     "# columns: id x y z r\n1 1 1 1\n0.5 0.5 0.5 0.1\n",
+     3,
      {"expected 5 columns (as declared on line 1), got 4"}},
     {"IdNotInteger", "# columns: id x y z r\n1 1 1 1\n1.5 0.5 0.5 0.5 0.1\n", 3, {"column 1 (id)", "'1.5'"}},
     {"IdNegative", "# columns: id x y z r\n1 1 1 1\n-1 0.5 0.5 0.5 0.1\n", 3, {"column 1 (id)", "'-1'"}},
-    {"IdTwice", "# columns: id x y z r\n2 1 1 1\n4 0.5 0.5 0.5 0.1\n4 0.2 0.2 0.2 0.1\n", 4,
+    {"IdTwice",
+     "# columns: id x y z r\n2 1 1 1\n4 0.5 0.5 0.5 0.1\n4 0.2 0.2 0.2 0.1\n",
+     4,
      {"id 4 appears twice (also on line 3)"}},
-    {"IdColumnRadiusNamed", "# columns: id x y z r\n1 1 1 1\n3 0.5 0.5 0.5 -1\n", 3,
+    {"IdColumnRadiusNamed",
+     "# columns: id x y z r\n1 1 1 1\n3 0.5 0.5 0.5 -1\n",
+     3,
      {"column 5 (r): radius must be positive"}},
     {"ElevenColumnsWithoutDeclaration", "1 1 1 1\n0 1 1 1 1 0 0 0 0 0 0\n", 2, {"got 11"}},
-    {"BoundariesTwice", "# boundaries: wall wall wall\n# boundaries: wall wall wall\n1 1 1 1\n", 2,
+    {"BoundariesTwice",
+     "# boundaries: wall wall wall\n# boundaries: wall wall wall\n1 1 1 1\n",
+     2,
      {"boundaries given twice (first on line 1)"}},
-    {"BoundariesAfterHeader", "1 1 1 1\n# boundaries: wall wall wall\n0.5 0.5 0.5 0.1\n", 2,
+    {"BoundariesAfterHeader",
+     "1 1 1 1\n# boundaries: wall wall wall\n0.5 0.5 0.5 0.1\n",
+     2,
      {"must come before the header line (line 1)"}},
 };
 

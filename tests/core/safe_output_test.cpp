@@ -1,6 +1,7 @@
 // Output safety (issue 15): output paths checked before a run, atomic replacement, attribute parsing.
 #include "core/io/safe_output.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -14,7 +15,6 @@
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/attributes.hpp"
-#include <fmt/format.h>
 
 namespace fs = std::filesystem;
 using namespace polydem;

@@ -3,14 +3,14 @@
 // seed 000 (eqs. 3.23-3.25 and Table 3.1; shared/spec/hgrid-and-polydispersity.md §3.2, §6.4).
 #include "core/size_distribution.hpp"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "core/errors.hpp"
 
@@ -238,7 +238,8 @@ TEST(SizeDistribution, MomentRatiosMatchClosedForms) {
   }
   // LN, eq. 3.25 (untruncated).
   for (double sigma : {0.05, 0.3, 1.0}) {
-    const Ratios ln = ratios(*makeDistribution({.kind = "ln", .rmin = 0.0, .omega = 0.0, .sigma = sigma, .median = 3.0}));
+    const Ratios ln =
+        ratios(*makeDistribution({.kind = "ln", .rmin = 0.0, .omega = 0.0, .sigma = sigma, .median = 3.0}));
     EXPECT_NEAR(ln.o1, std::exp(-2.0 * sigma * sigma), 1e-12);
     EXPECT_NEAR(ln.o2, std::exp(-3.0 * sigma * sigma), 1e-12);
   }

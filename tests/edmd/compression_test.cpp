@@ -160,8 +160,7 @@ TEST(Compression, SmallMonodispersePackingJamsIsostatic) {
     sequential.solver = solver;
     const SequentialLoadingResult seqHoled = testSequentialLoading(spheres, r.box, r.net, sequential);
     EXPECT_FALSE(seqHoled.jammed) << seqHoled.verdict;
-    EXPECT_TRUE(seqHoled.largestDisplacement > sequential.maxLimit ||
-                seqHoled.meanDisplacement > sequential.meanLimit)
+    EXPECT_TRUE(seqHoled.largestDisplacement > sequential.maxLimit || seqHoled.meanDisplacement > sequential.meanLimit)
         << seqHoled.verdict;
     const Eigen::Matrix3Xd moved = r.x + seqHoled.motion;
     double worst = 0.0;

@@ -35,7 +35,7 @@ TEST(HoodGrid, QueriesMatchBruteForceAfterMoves) {
       r[i] = 0.5 / std::sqrt(1.0 - 0.99 * uniform(rng));  // 0.5 .. 5, many small, a few large
       for (int k = 0; k < 3; ++k) x(k, i) = box.length(k) * uniform(rng);
     }
-    x(0, 0) = 0.0;  // on the lower face
+    x(0, 0) = 0.0;                                 // on the lower face
     x(1, 1) = std::nextafter(box.length(1), 0.0);  // just below the upper face
     HoodGrid grid;
     grid.build(box, x, r);

@@ -1,11 +1,11 @@
 // No heap allocation inside the time loop once buffers are sized: global operator new is replaced by a
 // counting one for this binary (counting only while `gCounting` is set).
+#include <gtest/gtest.h>
+
 #include <atomic>
 #include <cstdlib>
 #include <new>
 #include <utility>
-
-#include <gtest/gtest.h>
 
 #include "integrators/dem_simulation.hpp"
 #include "integrators/initial_velocities.hpp"
@@ -29,7 +29,8 @@ namespace polydem::integrators {
 namespace {
 
 TEST(TimeLoop, DoesNotAllocateOnceSized) {
-  for (const auto& [friction, threads] : {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 2}, std::pair{true, 2}}) {
+  for (const auto& [friction, threads] :
+       {std::pair{false, 1}, std::pair{true, 1}, std::pair{false, 2}, std::pair{true, 2}}) {
     if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
     SCOPED_TRACE(::testing::Message() << (friction ? "frictional, walls" : "frictionless, periodic") << ", " << threads
                                       << " threads");

@@ -1,9 +1,9 @@
 // Head-on collisions against the analytic spring-dashpot and Hertz solutions: restitution, contact
 // duration, particle-wall impacts, unequal sizes, and the time step that the pair sets.
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
-
-#include <gtest/gtest.h>
 
 #include "integrators/dem_simulation.hpp"
 #include "tests/integrators/dem_scenes.hpp"

@@ -9,9 +9,9 @@
 //     the contact-point velocity reverses: v_t' = 3/7 u, r omega' = 10/7 u;
 //   tan theta >= 7 mu    (sliding throughout: the contact point never stops)
 //     v_t' = u - 2 mu v_n, r omega' = 5 mu v_n.
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "integrators/dem_simulation.hpp"
 
@@ -44,8 +44,8 @@ Rebound impact(double tanTheta, double mu) {
   p.velocity().col(0) << u, 0.0, -vn;
   DemSettings settings;
   settings.contact = cp;
-  DemSimulation sim(std::move(p), Box(Eigen::Vector3d::Constant(edge), {Boundary::Periodic, Boundary::Periodic,
-                                                                         Boundary::Wall}),
+  DemSimulation sim(std::move(p),
+                    Box(Eigen::Vector3d::Constant(edge), {Boundary::Periodic, Boundary::Periodic, Boundary::Wall}),
                     settings);
   EXPECT_NEAR(sim.dt(), dt, 1e-14 * dt);
   sim.advance(100);  // 10 steps of approach, 50 in contact, then free flight

@@ -1,10 +1,10 @@
 // The automatic time step, the stability checker, and extreme scenes that must run stably.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <string>
 #include <vector>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 
 #include "core/errors.hpp"
 #include "integrators/dem_simulation.hpp"

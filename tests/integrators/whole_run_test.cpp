@@ -1,10 +1,10 @@
 // Whole runs: energy and momentum of an elastic gas, identical trajectories for every broad-phase
 // backend, for any skin and with or without spatial reordering (contact history carried by id).
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include <gtest/gtest.h>
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
@@ -65,7 +65,8 @@ DemSimulation frictionalScene(const std::string& backend, double skin, bool spat
   Box box;
   std::vector<double> radii;
   for (int i = 0; i < 216; ++i) radii.push_back(1.0 + 0.5 * ((i * 37) % 101) / 100.0);  // 1..1.5
-  ParticleStore p = test::latticeGas(radii, 0.3, box, 5, true, {Boundary::Periodic, Boundary::Periodic, Boundary::Wall});
+  ParticleStore p =
+      test::latticeGas(radii, 0.3, box, 5, true, {Boundary::Periodic, Boundary::Periodic, Boundary::Wall});
   const ContactParameters cp = linear(0.6, 0.4);
   assignImpactVelocities(ContactModel(cp), p, 0.05, 7);
   for (Index i = 0; i < p.count(); ++i) p.velocity()(2, i) -= 1.0;  // towards the floor

@@ -48,7 +48,7 @@ TEST(PackingValidity, InflatedFccIsRefused) {
   std::vector<Index> ids(108);
   for (Index i = 0; i < 108; ++i) ids[static_cast<std::size_t>(i)] = 1000 + i;
   EXPECT_NE(describeInvalidPacking(v, ids).find("spheres " + std::to_string(1000 + v.worstI) + " and " +
-                                               std::to_string(1000 + v.worstJ)),
+                                                std::to_string(1000 + v.worstJ)),
             std::string::npos);
   EXPECT_THROW(requireHardSpherePacking(spheres, box, {.overlapTolerance = 1e-4}, "fcc.txt"), InputError);
   try {
@@ -119,8 +119,8 @@ TEST(PackingValidity, OverlapIsMeasuredAgainstTheSmallerRadius) {
   x << 5, 6, 5, 5, 5, 5;
   Eigen::VectorXd r(2);
   r << 1.0, 0.1;
-  const PackingValidity v = checkHardSpherePacking(SphereView{x, r}, Box::cubic(10.0, Boundary::Periodic),
-                                                   {.overlapTolerance = 0.5});
+  const PackingValidity v =
+      checkHardSpherePacking(SphereView{x, r}, Box::cubic(10.0, Boundary::Periodic), {.overlapTolerance = 0.5});
   EXPECT_NEAR(v.worstOverlap, 1.0, 1e-12);
   EXPECT_EQ(v.worstI, 0);
   EXPECT_EQ(v.worstJ, 1);
@@ -140,11 +140,9 @@ TEST(PackingValidity, WallsAndOwnImages) {
   EXPECT_NE(describeInvalidPacking(wall).find("sphere 0 crosses the lower wall at x = 0 by 0.5"), std::string::npos)
       << describeInvalidPacking(wall);
   // Wider than a periodic length: it overlaps itself (brute force, no broad phase fits that box).
-  const PackingValidity self =
-      checkHardSpherePacking(SphereView{x, r},
-                             Box(Eigen::Vector3d(1.5, 10, 10),
-                                 {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic}),
-                             {});
+  const PackingValidity self = checkHardSpherePacking(
+      SphereView{x, r}, Box(Eigen::Vector3d(1.5, 10, 10), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic}),
+      {});
   EXPECT_NEAR(self.worstOverlap, 0.5, 1e-12);
   EXPECT_EQ(self.worstJ, 0);
   EXPECT_NE(describeInvalidPacking(self).find("own periodic image"), std::string::npos);

@@ -1,11 +1,10 @@
 #pragma once
 // Seeded scene generators shared by the tests and the benchmarks.
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "broadphase/broad_phase.hpp"
 #include "core/box.hpp"
