@@ -280,7 +280,8 @@ TEST(HGridCostModel, AppendixProcedureUniformVolume) {
   ASSERT_EQ(result.table.front().levels, 1);
   EXPECT_NEAR(result.table.front().cost, 1487.7, 0.5);
   // L(m) at the reported m, and one level more just below it.
-  const auto sorted = CostModelPsd::sample(radii, volume).sortedRadii();
+  const CostModelPsd psd = CostModelPsd::sample(radii, volume);  // owns the radii the span views
+  const auto sorted = psd.sortedRadii();
   EXPECT_EQ(appendixLevelCount(sorted, volume, 0.0, result.optimal().perCell), 7);
   EXPECT_GT(appendixLevelCount(sorted, volume, 0.0, result.optimal().perCell * (1 - 1e-6)), 7);
   const auto& s = result.optimal().cellSizes;
