@@ -13,6 +13,7 @@
 #include <map>
 
 #include "apps/polydem/analyze.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/errors.hpp"
 #include "core/io/attributes.hpp"
 #include "core/io/safe_output.hpp"
@@ -57,6 +58,16 @@ void printHeader(const AnalyzeOptions& opt, const io::ParticleData& data) {
              n ? fmt::format("{:.4g}", data.radius.maxCoeff() / data.radius.minCoeff())
                : std::string("undefined (no spheres)"));
   fmt::print("packing fraction        {:.8f}\n", solidVolume(data) / data.box.volume());
+  RunSummary& s = summary();
+  s.put("input.file", opt.input);
+  s.put("input.spheres", static_cast<std::int64_t>(n));
+  s.put("input.box", data.box.describe());
+  if (n) {
+    s.put("input.size_ratio", data.radius.maxCoeff() / data.radius.minCoeff());
+  } else {
+    s.undefined("input.size_ratio", "no spheres");
+  }
+  s.put("packing.packing_fraction", solidVolume(data) / data.box.volume());
 }
 
 ContactAnalysis computeContacts(const AnalyzeOptions& opt, const io::ParticleData& data) {
@@ -99,6 +110,7 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   const double phi = solidVolume(data) / data.box.volume();
 
   printHeader(opt, data);
+  summary().put("packing.density_bound", validity.densityBound);
   fmt::print("density bound           {:.8f} ({}); no overlap beyond the contact tolerance\n", validity.densityBound,
              validity.equalSpheres         ? "FCC, equal spheres"
              : validity.densityBound < 1.0 ? "pi/sqrt(18) <r^3>/r_min^3"
@@ -110,7 +122,16 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
         : *pressure > 3.0 ? fmt::format("phi_J estimate {:.8f}", edmd::jammingDensityEstimate(phi, *pressure))
                           : std::string("phi_J estimate undefined: needs p > 3");
     fmt::print("reduced pressure        {:.4g} ({})  ({})\n", *pressure, source, estimate);
+    summary().put("packing.reduced_pressure", *pressure);
+    summary().put("packing.reduced_pressure_source", source);
+    if (net.backbone != 0 && *pressure > 3.0) {
+      summary().put("packing.phi_j_estimate", edmd::jammingDensityEstimate(phi, *pressure));
+    } else {
+      summary().undefined("packing.phi_j_estimate", net.backbone == 0 ? "empty backbone" : "needs p > 3");
+    }
   } else {
+    summary().undefined("packing.reduced_pressure", "no reduced_pressure attribute, no --pressure");
+    summary().undefined("packing.phi_j_estimate", "reduced pressure unknown");
     fmt::print(
         "reduced pressure        unknown (no reduced_pressure attribute, no --pressure): phi_J estimate "
         "undefined\n");
@@ -120,8 +141,11 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   if (gap) {
     fmt::print("smallest gap            {:.3g} (relative to r_i + r_j; negative = overlap), spheres {} and {}\n",
                gap->gap, id(gap->i), id(gap->j));
+    summary().put("packing.smallest_gap.relative_gap", gap->gap);
+    summary().put("packing.smallest_gap.ids", std::vector<std::int64_t>{id(gap->i), id(gap->j)});
   } else {
     fmt::print("smallest gap            undefined (fewer than two spheres)\n");
+    summary().undefined("packing.smallest_gap", "fewer than two spheres");
   }
   fmt::print("contacts (gap <= {:.1e}) {}  z = {}\n", contact.relativeGap, net.contacts.size(),
              n ? fmt::format("{:.4f}", net.meanCoordination()) : std::string("undefined (no spheres)"));
@@ -130,6 +154,27 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   fmt::print(
       "backbone                {} spheres, {} contacts, z = {}\n", net.backbone, net.backboneContacts,
       net.backbone ? fmt::format("{:.4f}", net.backboneCoordination()) : std::string("undefined (empty backbone)"));
+  RunSummary& s = summary();
+  s.put("contacts.relative_gap", contact.relativeGap);
+  s.put("contacts.count", static_cast<std::int64_t>(net.contacts.size()));
+  s.put("contacts.min_contacts_backbone", contact.minContacts);
+  s.put("contacts.rattlers", static_cast<std::int64_t>(n - net.backbone));
+  s.put("contacts.backbone_spheres", static_cast<std::int64_t>(net.backbone));
+  s.put("contacts.backbone_contacts", static_cast<std::int64_t>(net.backboneContacts));
+  if (n) {
+    s.put("contacts.z", net.meanCoordination());
+    s.put("contacts.rattler_fraction", net.rattlerFraction());
+  } else {
+    s.undefined("contacts.z", "no spheres");
+    s.undefined("contacts.rattler_fraction", "no spheres");
+  }
+  if (net.backbone) {
+    s.put("contacts.backbone_z", net.backboneCoordination());
+    s.put("contacts.isostatic_excess", net.isostaticExcess());
+  } else {
+    s.undefined("contacts.backbone_z", "empty backbone");
+    s.undefined("contacts.isostatic_excess", "empty backbone");
+  }
   if (net.backbone == 0) {
     fmt::print("isostaticity            undefined (empty backbone: every sphere is a rattler)\n");
   } else {
@@ -146,6 +191,13 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   std::string hist;
   for (const auto& [z, count] : histogram) hist += fmt::format(" {}:{}", z, count);
   fmt::print("backbone contact numbers{}\n", hist.empty() ? " none (empty backbone)" : hist);
+  std::vector<std::int64_t> zs, counts;
+  for (const auto& [z, count] : histogram) {
+    zs.push_back(z);
+    counts.push_back(count);
+  }
+  s.put("contacts.backbone_histogram.contact_number", zs);
+  s.put("contacts.backbone_histogram.spheres", counts);
 
   if (n == 0) {
     fmt::print("Z(tau), all spheres     undefined (no spheres)\n");
@@ -170,6 +222,8 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
                   : fmt::format("; undefined above tau = {:.0e} (gaps beyond half the box length)", taus.back());
     }
     fmt::print("Z(tau), all spheres    {}\n", line);
+    s.put("cumulative_coordination.tau", taus);
+    s.put("cumulative_coordination.z", z);
     if (!opt.coordinationCsv.empty()) {
       io::writeFileAtomically(opt.coordinationCsv, csvText("tau,Z", taus, z));
       fmt::print("wrote {}\n", opt.coordinationCsv);

@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "apps/polydem/analyze.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/io/safe_output.hpp"
 #include "jamming/ideal_contacts.hpp"
 #include "jamming/load_protocols.hpp"
@@ -61,6 +62,15 @@ void certifyJamming(const AnalyzeOptions& opt, const io::ParticleData& data, con
                                            ideal.floppyObjective)
                              : std::string("; no LP solved"));
     std::fflush(stdout);
+    RunSummary& s = summary();
+    s.put("certify.ideal_contacts.outcome", std::string(jamming::verdictName(ideal.outcome)));
+    s.put("certify.ideal_contacts.verdict", ideal.verdict);
+    s.put("certify.ideal_contacts.lps_solved", ideal.lps);
+    if (ideal.lps > 0) {
+      s.put("certify.ideal_contacts.opening_objective", ideal.openingObjective);
+      s.put("certify.ideal_contacts.floppy_objective", ideal.floppyObjective);
+    }
+    s.put("certify.ideal_contacts.seconds", ideal.seconds);
   }
   const jamming::LoadTestOptions loadOptions = loadTestOptions(opt);
   const jamming::LoadTestResult load = jamming::testJammingUnderLoad(spheres, data.box, tested, loadOptions);
@@ -71,6 +81,18 @@ void certifyJamming(const AnalyzeOptions& opt, const io::ParticleData& data, con
     fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {}, {:.2f} s)\n",
                jam.verdict, jam.constraints, loadOptions.gapTolerance, jam.solver, jam.seconds);
   }
+  RunSummary& s = summary();
+  if (opt.removeSphere >= 0) s.put("certify.removed_sphere", static_cast<std::int64_t>(opt.removeSphere));
+  s.put("certify.loads.protocol", opt.loadTest);
+  s.put("certify.loads.outcome", std::string(jamming::verdictName(jam.outcome)));
+  s.put("certify.loads.verdict", jam.verdict);
+  s.put("certify.loads.largest_displacement", jam.largestDisplacement);
+  s.put("certify.loads.displaced_spheres", static_cast<std::int64_t>(jam.displaced));
+  s.put("certify.loads.constraints", static_cast<std::int64_t>(jam.constraints));
+  s.put("certify.loads.gap_tolerance", loadOptions.gapTolerance);
+  s.put("certify.loads.solver", jam.solver);
+  s.put("certify.loads.local_rattlers", static_cast<std::int64_t>(jam.localRattlers));
+  s.put("certify.loads.seconds", jam.seconds);
   if (!opt.motionCsv.empty()) {
     // Radius, contacts and rattler flag with the motion, so the moving spheres can be told apart.
     std::string text = "i,radius,contacts,rattler,dx,dy,dz,moved_over_diameter\n";
@@ -119,6 +141,26 @@ void runLeakTest(const AnalyzeOptions& opt, const io::ParticleData& data, const 
                result.counts.collisions, result.seconds,
                static_cast<double>(result.counts.collisions) / std::max(result.seconds, 1e-9));
   }
+  RunSummary& s = summary();
+  if (opt.removeSphere >= 0) s.put("leak_test.removed_sphere", static_cast<std::int64_t>(opt.removeSphere));
+  s.put("leak_test.outcome", std::string(jamming::verdictName(result.outcome)));
+  s.put("leak_test.verdict", result.verdict);
+  s.put("leak_test.leaks", result.leaks);
+  s.put("leak_test.pressure_change", result.pressureChange);
+  s.put("leak_test.drift_ratio", result.driftRatio);
+  s.put("leak_test.collisions", static_cast<std::int64_t>(result.counts.collisions));
+  s.put("leak_test.seconds", result.seconds);
+  std::vector<double> cpp, pressure, meanDisp, maxDisp;
+  for (const jamming::LeakBlock& b : result.blocks) {
+    cpp.push_back(b.collisionsPerParticle);
+    pressure.push_back(b.pressure);
+    meanDisp.push_back(b.meanDisplacement);
+    maxDisp.push_back(b.maxDisplacement);
+  }
+  s.put("leak_test.blocks.collisions_per_particle", cpp);
+  s.put("leak_test.blocks.reduced_pressure", pressure);
+  s.put("leak_test.blocks.mean_displacement", meanDisp);
+  s.put("leak_test.blocks.max_displacement", maxDisp);
 }
 
 }  // namespace polydem::app::analyze

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "apps/polydem/analyze.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/io/safe_output.hpp"
 #include "structure/bond_order.hpp"
 #include "structure/channel_size.hpp"
@@ -30,6 +31,11 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
           "rattlers (|v|/v_rms <= {:.1e}) {} ({:.2f}%), volume fraction nu_r {:.5f} ({:.2f}% of the solid "
           "volume)\n",
           velocityThreshold, r.count, 100.0 * r.numberFraction, r.volumeFraction, 100.0 * r.volumeShare);
+      summary().put("velocity_rattlers.threshold", velocityThreshold);
+      summary().put("velocity_rattlers.count", static_cast<std::int64_t>(r.count));
+      summary().put("velocity_rattlers.number_fraction", r.numberFraction);
+      summary().put("velocity_rattlers.volume_fraction", r.volumeFraction);
+      summary().put("velocity_rattlers.volume_share", r.volumeShare);
       if (net) {
         Index both = 0, geometric = 0;
         for (Index i = 0; i < n; ++i) {
@@ -49,6 +55,15 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
                n ? fmt::format("{:.3f} per sphere", nb.meanDegree()) : std::string("undefined (no spheres)"),
                nb.imageShell, nb.attempts, seconds,
                nb.unverifiedCells ? fmt::format(", {} cells unverified", nb.unverifiedCells) : std::string());
+    summary().put("delaunay.image_shell", nb.imageShell);
+    summary().put("delaunay.triangulations", nb.attempts);
+    summary().put("delaunay.unverified_cells", static_cast<std::int64_t>(nb.unverifiedCells));
+    summary().put("delaunay.hidden_spheres", static_cast<std::int64_t>(nb.hidden));
+    if (n) {
+      summary().put("delaunay.mean_neighbours", nb.meanDegree());
+    } else {
+      summary().undefined("delaunay.mean_neighbours", "no spheres");
+    }
     if (nb.hidden) fmt::print("  {} spheres hidden by overlapping larger ones (no neighbours)\n", nb.hidden);
     if (opt.order) {
       if (nb.entries() == 0) {
@@ -58,6 +73,10 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
         const structure::BondOrder order = structure::bondOrder(nb);
         fmt::print("bond order (l = 6)      p_c = {:.4f} ({} solid-like of {}), mean q6 = {:.4f}, Q6 = {:.4f}\n",
                    order.crystallineFraction, order.solidCount, n, order.meanQ, order.globalQ);
+        summary().put("bond_order.crystalline_fraction", order.crystallineFraction);
+        summary().put("bond_order.solid_like", static_cast<std::int64_t>(order.solidCount));
+        summary().put("bond_order.mean_q6", order.meanQ);
+        summary().put("bond_order.global_q6", order.globalQ);
       }
     }
     if (!opt.channelsCsv.empty()) {
@@ -74,6 +93,15 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
             "channels R_j/r_i        {} acute of {} triangles, {} with a gap circle; mean {:.4f}, sd {:.4f} "
             "({:.2f} s)\n",
             h.acute, h.triangles, h.channels, h.mean, h.stddev, sec);
+      }
+      summary().put("channels.acute_triangles", static_cast<std::int64_t>(h.acute));
+      summary().put("channels.triangles", static_cast<std::int64_t>(h.triangles));
+      summary().put("channels.with_gap_circle", static_cast<std::int64_t>(h.channels));
+      if (h.channels > 0) {
+        summary().put("channels.mean", h.mean);
+        summary().put("channels.sd", h.stddev);
+      } else {
+        summary().undefined("channels.mean", "no channel with a gap circle");
       }
       if (h.overflow) fmt::print("  {} channels with R_j/r_i >= 1e4 are not in the histogram\n", h.overflow);
       std::string text = "x_low,x_mid,f,count\n";
@@ -103,6 +131,11 @@ void analyzeStructure(const AnalyzeOptions& opt, const io::ParticleData& data, c
           "S(k)                    {} wave vectors (stride {}) in {} shells up to K = {} ({:.2f} s); S(K_min = "
           "{:.3f}) = {:.4g}, peak S = {:.4g} at K = {:.3f}\n",
           sk.totalVectors, sk.stride, sk.k.size(), opt.skMax, sec, sk.k[0], sk.s[0], sk.s[peak], sk.k[peak]);
+      summary().put("structure_factor.wave_vectors", static_cast<std::int64_t>(sk.totalVectors));
+      summary().put("structure_factor.k_min", sk.k[0]);
+      summary().put("structure_factor.s_at_k_min", sk.s[0]);
+      summary().put("structure_factor.peak_s", sk.s[peak]);
+      summary().put("structure_factor.peak_k", sk.k[peak]);
     }
     std::string text = "K,S,chi,vectors\n";
     for (std::size_t s = 0; s < sk.k.size(); ++s) {

@@ -3,11 +3,15 @@
 
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <map>
+#include <set>
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/errors.hpp"
+#include "core/io/safe_output.hpp"
 #include "polydem/config.hpp"
 
 int main(int argc, char** argv) {
@@ -29,6 +33,12 @@ int main(int argc, char** argv) {
   add(&polydem::app::addAnalyze);
   add(&polydem::app::addBench);
   add(&polydem::app::addPredict);
+  // --summary-json on the subcommands whose reports feed it (apps/polydem/summary.hpp).
+  std::string summaryPath;
+  const std::set<std::string> withSummary = {"pairs", "analyze"};
+  for (auto& [sub, run] : runners) {
+    if (withSummary.count(sub->get_name()) > 0) polydem::app::addSummaryOption(*sub, summaryPath);
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -37,22 +47,54 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? polydem::app::kExitOk : polydem::app::kExitConfigError;
   }
-  try {
-    for (auto& [sub, run] : runners) {
-      if (sub->parsed()) return run();
+  CLI::App* sub = nullptr;
+  polydem::app::Runner* run = nullptr;
+  for (auto& [candidate, runner] : runners) {
+    if (candidate->parsed()) {
+      sub = candidate;
+      run = &runner;
     }
-  } catch (const polydem::ConfigError& e) {
-    fmt::print(stderr, "polydem: configuration error: {}\n", e.what());
-    return 2;
-  } catch (const polydem::InputError& e) {
-    fmt::print(stderr, "polydem: input error: {}\n", e.what());
-    return 2;
-  } catch (const polydem::SimulationError& e) {
-    fmt::print(stderr, "polydem: simulation error: {}\n", e.what());
-    return 3;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "polydem: error: {}\n", e.what());
-    return 1;
   }
-  return 0;
+  if (run == nullptr) return polydem::app::kExitOk;
+  int code = polydem::app::kExitOk;
+  std::string message;
+  try {
+    if (!summaryPath.empty()) {
+      // Checked before the run (issue 15): not a directory, writable, not one of the inputs (the
+      // subcommand's positional arguments and --input).
+      std::vector<std::filesystem::path> inputs;
+      for (const CLI::Option* opt : sub->get_options()) {
+        if (opt->get_positional() || opt->check_name("--input")) {
+          for (const std::string& r : opt->results()) inputs.emplace_back(r);
+        }
+      }
+      polydem::io::checkOutputPath(summaryPath, "--summary-json", inputs);
+      polydem::app::summary().enable();
+      polydem::app::recordInvocation(argc, argv, *sub);
+    }
+    code = (*run)();
+  } catch (const polydem::ConfigError& e) {
+    message = fmt::format("configuration error: {}", e.what());
+    code = polydem::app::kExitConfigError;
+  } catch (const polydem::InputError& e) {
+    message = fmt::format("input error: {}", e.what());
+    code = polydem::app::kExitConfigError;
+  } catch (const polydem::SimulationError& e) {
+    message = fmt::format("simulation error: {}", e.what());
+    code = polydem::app::kExitSimulationError;
+  } catch (const std::exception& e) {
+    message = fmt::format("error: {}", e.what());
+    code = polydem::app::kExitError;
+  }
+  if (!message.empty()) fmt::print(stderr, "polydem: {}\n", message);
+  if (polydem::app::summary().enabled()) {
+    polydem::app::recordExit(code, message);
+    try {
+      polydem::io::writeFileAtomically(summaryPath, polydem::app::summary().toJson());
+    } catch (const std::exception& e) {
+      fmt::print(stderr, "polydem: error: could not write --summary-json {}: {}\n", summaryPath, e.what());
+      if (code == polydem::app::kExitOk) code = polydem::app::kExitError;
+    }
+  }
+  return code;
 }

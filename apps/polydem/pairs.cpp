@@ -6,6 +6,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
+#include "apps/polydem/summary.hpp"
 #include "apps/polydem/validators.hpp"
 #include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
@@ -97,6 +98,18 @@ int runPairs(const PairsOptions& opt) {
   auto backend = makeBackend(opt, spheres, data.box);
   const PairReport r = measurePairs(*backend, spheres, data.box, opt.skin, opt.repeat);
   printPairReport(r, data.count());
+  RunSummary& s = summary();
+  s.put("input.file", opt.file);
+  s.put("input.particles", static_cast<std::int64_t>(data.count()));
+  s.put("input.box", data.box.describe());
+  s.put("broad_phase.description", r.description);
+  s.put("pairs.candidate", static_cast<std::int64_t>(r.candidatePairs));
+  s.put("pairs.overlapping", static_cast<std::int64_t>(r.overlappingPairs));
+  s.put("pairs.checksum", std::to_string(r.checksum));
+  s.put("time.repeats", opt.repeat);
+  s.put("time.build_seconds_median", r.buildSeconds);
+  s.put("time.find_seconds_median", r.findSeconds);
+  s.put("memory.bytes", static_cast<std::int64_t>(r.memoryBytes));
   return 0;
 }
 }  // namespace
