@@ -62,7 +62,9 @@ Mixture makeMixture(std::vector<double> radius, std::vector<double> numberFracti
   if (!(total > 0.0)) throw ConfigError("mixture: number fractions sum to 0");
   std::vector<std::size_t> order(radius.size());
   std::iota(order.begin(), order.end(), 0);
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t i, std::size_t j) { return radius[i] > radius[j]; });
+  // Index tie-break = the stable order (no std::stable_sort buffer; see integrators::mortonOrder).
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t i, std::size_t j) { return radius[i] > radius[j] || (radius[i] == radius[j] && i < j); });
   Mixture m;
   double volume = 0.0;
   for (std::size_t i : order) {
@@ -145,9 +147,10 @@ std::vector<double> mixtureRadii(const Mixture& mixture, Index count) {
   }
   std::vector<std::size_t> order(s);
   std::iota(order.begin(), order.end(), 0);
-  // Species are sorted largest radius first, so the stable sort breaks ties towards larger radii.
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t i, std::size_t j) { return remainder[i] > remainder[j]; });
+  // Species are sorted largest radius first, so the index tie-break (the stable order) favours larger radii.
+  std::sort(order.begin(), order.end(), [&](std::size_t i, std::size_t j) {
+    return remainder[i] > remainder[j] || (remainder[i] == remainder[j] && i < j);
+  });
   for (std::size_t k = 0; assigned < count && s > 0; k = (k + 1) % s) {
     ++number[order[k]];
     ++assigned;

@@ -204,8 +204,11 @@ Configuration randomSequentialAddition(const PackingRequest& request) {
 
   std::vector<Index> order(radii.size());
   std::iota(order.begin(), order.end(), Index{0});
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) {
-    return radii[static_cast<std::size_t>(a)] > radii[static_cast<std::size_t>(b)];
+  // Index tie-break = the stable order (no std::stable_sort buffer; see integrators::mortonOrder).
+  std::sort(order.begin(), order.end(), [&](Index a, Index b) {
+    const double ra = radii[static_cast<std::size_t>(a)];
+    const double rb = radii[static_cast<std::size_t>(b)];
+    return ra > rb || (ra == rb && a < b);
   });
 
   MultiLevelGrid grid(box, radii);

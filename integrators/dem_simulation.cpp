@@ -135,7 +135,10 @@ std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box) 
   }
   std::vector<Index> order(static_cast<std::size_t>(n));
   std::iota(order.begin(), order.end(), Index{0});
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return code[a] < code[b]; });
+  // Index tie-break = the stable order, without std::stable_sort's temporary buffer (GCC 12 -O3 pairs its
+  // new(nothrow) with free, which AddressSanitizer reports as an alloc-dealloc mismatch).
+  std::sort(order.begin(), order.end(),
+            [&](Index a, Index b) { return code[a] < code[b] || (code[a] == code[b] && a < b); });
   return order;
 }
 

@@ -78,7 +78,7 @@ analyze_cli_test(gas_phi_j
 add_test(NAME cli_analyze_degenerate
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/analyze_degenerate.sh $<TARGET_FILE:polydem> ${_analyze_in})
 set_tests_properties(cli_analyze_degenerate PROPERTIES FIXTURES_REQUIRED cli_analyze_inputs TIMEOUT 300
-                     LABELS cli)
+                     LABELS "cli;slow")
 
 # No assumed pressure; attributes parsed strictly.
 analyze_cli_test(text_needs_pressure

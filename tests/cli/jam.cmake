@@ -96,10 +96,10 @@ polydem_cli_test(NAME jam_resume_conflict COMMAND jam --resume jam_no_such_check
                  PASS "--count cannot be combined with --resume" LABELS jam)
 add_test(NAME cli_jam_resume
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_resume.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
-set_tests_properties(cli_jam_resume PROPERTIES TIMEOUT 300 LABELS "cli;jam")
+set_tests_properties(cli_jam_resume PROPERTIES TIMEOUT 300 LABELS "cli;jam;slow")
 add_test(NAME cli_jam_interrupt
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_interrupt.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
-set_tests_properties(cli_jam_interrupt PROPERTIES TIMEOUT 300 LABELS "cli;jam")
+set_tests_properties(cli_jam_interrupt PROPERTIES TIMEOUT 300 LABELS "cli;jam;slow")
 
 # --- --reopen reads the file's reduced_pressure strictly (io::numericAttribute) ----------------------
 add_test(NAME cli_jam_reopen_attribute

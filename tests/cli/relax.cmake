@@ -139,3 +139,4 @@ foreach(script relax_options relax_resume relax_interrupt relax_compress_resume 
            ${POLYDEM_CLI_WORK}/${script})
   set_tests_properties(cli_${script} PROPERTIES TIMEOUT 300 LABELS "cli;relax")
 endforeach()
+set_property(TEST cli_relax_compress_resume APPEND PROPERTY LABELS slow)
