@@ -58,7 +58,7 @@ void printHeader(const AnalyzeOptions& opt, const io::ParticleData& data) {
              n ? fmt::format("{:.4g}", data.radius.maxCoeff() / data.radius.minCoeff())
                : std::string("undefined (no spheres)"));
   fmt::print("packing fraction        {:.8f}\n", solidVolume(data) / data.box.volume());
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   s.put("input.file", opt.input);
   s.put("input.spheres", static_cast<std::int64_t>(n));
   s.put("input.box", data.box.describe());
@@ -154,7 +154,7 @@ void reportContacts(const AnalyzeOptions& opt, const io::ParticleData& data, con
   fmt::print(
       "backbone                {} spheres, {} contacts, z = {}\n", net.backbone, net.backboneContacts,
       net.backbone ? fmt::format("{:.4f}", net.backboneCoordination()) : std::string("undefined (empty backbone)"));
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   s.put("contacts.relative_gap", contact.relativeGap);
   s.put("contacts.count", static_cast<std::int64_t>(net.contacts.size()));
   s.put("contacts.min_contacts_backbone", contact.minContacts);

@@ -62,7 +62,7 @@ void certifyJamming(const AnalyzeOptions& opt, const io::ParticleData& data, con
                                            ideal.floppyObjective)
                              : std::string("; no LP solved"));
     std::fflush(stdout);
-    RunSummary& s = summary();
+    SummaryJson& s = summary();
     s.put("certify.ideal_contacts.outcome", std::string(jamming::verdictName(ideal.outcome)));
     s.put("certify.ideal_contacts.verdict", ideal.verdict);
     s.put("certify.ideal_contacts.lps_solved", ideal.lps);
@@ -81,7 +81,7 @@ void certifyJamming(const AnalyzeOptions& opt, const io::ParticleData& data, con
     fmt::print("jamming test (loads)    {} ({} constraints with gap <= {:.2g} (r_i + r_j), {}, {:.2f} s)\n",
                jam.verdict, jam.constraints, loadOptions.gapTolerance, jam.solver, jam.seconds);
   }
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   if (opt.removeSphere >= 0) s.put("certify.removed_sphere", static_cast<std::int64_t>(opt.removeSphere));
   s.put("certify.loads.protocol", opt.loadTest);
   s.put("certify.loads.outcome", std::string(jamming::verdictName(jam.outcome)));
@@ -141,7 +141,7 @@ void runLeakTest(const AnalyzeOptions& opt, const io::ParticleData& data, const 
                result.counts.collisions, result.seconds,
                static_cast<double>(result.counts.collisions) / std::max(result.seconds, 1e-9));
   }
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   if (opt.removeSphere >= 0) s.put("leak_test.removed_sphere", static_cast<std::int64_t>(opt.removeSphere));
   s.put("leak_test.outcome", std::string(jamming::verdictName(result.outcome)));
   s.put("leak_test.verdict", result.verdict);

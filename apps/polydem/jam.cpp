@@ -18,6 +18,7 @@
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/equivalent_option.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/summary.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
@@ -366,6 +367,16 @@ void printStart(const JamRun& run) {
       "schedule {} -> {}; pressures up to {:.2g} resolvable\n", edmd::formatSchedule(run.copt.schedule),
       run.opt.targetPhi > 0 ? fmt::format("phi {}", run.opt.targetPhi) : fmt::format("p {:g}", run.opt.targetPressure),
       edmd::maxResolvablePressure(system));
+  SummaryJson& sum = app::summary();
+  sum.put("start.origin", run.origin);
+  sum.put("start.box", run.start.box.describe());
+  sum.put("start.spheres", static_cast<std::int64_t>(system.count()));
+  sum.put("start.size_ratio", system.largestRadius() / system.smallestRadius());
+  sum.put("start.packing_fraction", system.packingFraction());
+  sum.put("start.broad_phase", system.describeBroadPhase());
+  sum.put("start.mean_neighbours", system.meanNeighbours());
+  sum.put("start.schedule", edmd::formatSchedule(run.copt.schedule));
+  sum.put("start.max_resolvable_pressure", edmd::maxResolvablePressure(system));
 }
 
 /// --eos-csv: a new table, or, resumed, the table cut back to the checkpoint and appended to.
@@ -497,6 +508,11 @@ void runFixedDensity(JamRun& run, JamSummary& summary) {
       run.opt.runCollisions, fmtPressure(eq.pressure), fmtPressure(summary.pressure), eq.collisionsPerSecond,
       eq.eventsPerSecond, eq.wallSeconds, system.meanNeighbours(),
       static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)));
+  app::summary().put("fixed_density.collisions_per_particle", run.opt.runCollisions);
+  app::summary().put("fixed_density.reduced_pressure", eq.pressure);
+  app::summary().put("fixed_density.compression_end_pressure", summary.pressure);
+  app::summary().put("fixed_density.collisions_per_second", eq.collisionsPerSecond);
+  app::summary().put("fixed_density.wall_seconds", eq.wallSeconds);
   summary.pressure = eq.pressure;
 }
 
@@ -543,6 +559,43 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
   }
   fmt::print("largest overlap         {:.3g} (relative; at collisions {:.3g})\n", net.maxOverlap,
              system.maxOverlapSeen());
+  SummaryJson& sum = app::summary();
+  sum.put("report.stop_reason", s.stopReason);
+  sum.put("report.blocks", static_cast<std::int64_t>(outcome.result.last.blocks));
+  sum.put("report.target_reached", s.targetReached);
+  sum.put("report.interrupted", s.interrupted);
+  sum.put("report.packing_fraction", s.phi);
+  sum.put("report.reduced_pressure", s.pressure);
+  if (std::isfinite(s.phiJ)) {
+    sum.put("report.phi_j_estimate", s.phiJ);
+  } else {
+    sum.undefined("report.phi_j_estimate", "p <= 3");
+  }
+  sum.put("report.collisions", static_cast<std::int64_t>(c.collisions));
+  sum.put("report.collisions_per_particle", static_cast<double>(c.collisions) / n);
+  sum.put("report.events", static_cast<std::int64_t>(c.events()));
+  sum.put("report.cell_exits", static_cast<std::int64_t>(c.exits));
+  sum.put("report.rebuilds", static_cast<std::int64_t>(c.rebuilds));
+  sum.put("report.wall_seconds", seconds);
+  sum.put("report.contacts.relative_gap", s.contactOptions.relativeGap);
+  sum.put("report.contacts.count", static_cast<std::int64_t>(net.contacts.size()));
+  sum.put("report.contacts.z", net.meanCoordination());
+  sum.put("report.contacts.rattlers", static_cast<std::int64_t>(n - net.backbone));
+  sum.put("report.contacts.rattler_fraction", net.rattlerFraction());
+  sum.put("report.contacts.backbone_spheres", static_cast<std::int64_t>(net.backbone));
+  if (net.backbone > 0) {
+    sum.put("report.contacts.backbone_contacts", static_cast<std::int64_t>(net.backboneContacts));
+    sum.put("report.contacts.backbone_z", net.backboneCoordination());
+    sum.put("report.contacts.isostatic_excess", net.isostaticExcess());
+  } else {
+    sum.undefined("report.contacts.backbone_z", "every sphere a rattler");
+    sum.undefined("report.contacts.isostatic_excess", "every sphere a rattler");
+  }
+  sum.put("report.largest_overlap", net.maxOverlap);
+  sum.put("report.largest_overlap_at_collisions", system.maxOverlapSeen());
+  if (!run.opt.output.empty()) sum.put("outputs.packing", run.opt.output);
+  if (!run.opt.eosCsv.empty()) sum.put("outputs.eos_csv", run.opt.eosCsv);
+  if (!run.opt.checkpoint.empty()) sum.put("outputs.checkpoint", run.opt.checkpoint);
   if (net.backbone > 0 && net.isostaticExcess() < 0 && s.pressure >= 1e9) {
     // A hypostatic backbone at high pressure: floppy modes left by too fast a late stage (Donev 2006,
     // thesis, §9.3.1; docs/edmd-results.md, pressure-leak test against the final growth rate).

@@ -98,7 +98,7 @@ int runPairs(const PairsOptions& opt) {
   auto backend = makeBackend(opt, spheres, data.box);
   const PairReport r = measurePairs(*backend, spheres, data.box, opt.skin, opt.repeat);
   printPairReport(r, data.count());
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   s.put("input.file", opt.file);
   s.put("input.particles", static_cast<std::int64_t>(data.count()));
   s.put("input.box", data.box.describe());

@@ -22,6 +22,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -29,6 +30,7 @@
 
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/summary.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
@@ -214,6 +216,17 @@ int run(const RelaxOptions& opt) {
   }
   LoadedRun loaded = load(opt);
   fmt::print("polydem relax {}\n", opt.resume.empty() ? opt.scene : "--resume " + opt.resume);
+  if (summary().enabled()) {
+    // The settings of a scene run are the scene itself: its file verbatim (the --set overrides are in
+    // settings.set) or the checkpoint it was resumed from.
+    if (opt.resume.empty()) {
+      summary().put("scene.file", opt.scene);
+      std::ifstream in(opt.scene);
+      summary().put("scene.text", std::string(std::istreambuf_iterator<char>(in), {}));
+    } else {
+      summary().put("scene.resumed_from", opt.resume);
+    }
+  }
   installInterruptHandlers();
   if (!opt.sweep.empty()) return runSweep(loaded.scene, opt.sweep, opt.quiet, loaded.inputs);
   checkOutputs(loaded.scene, loaded.inputs);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "apps/polydem/relax.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/interrupt.hpp"
 
 namespace polydem::app {
@@ -37,6 +38,21 @@ void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, 
     fmt::print("start: {} contacts, max overlap / r {:.4g}, total energy {:.6g} J\n", s0.contacts, s0.maxOverlapRatio,
                sim.initialEnergy());
   }
+  SummaryJson& sum = summary();
+  sum.put("start.particles", static_cast<std::int64_t>(n));
+  sum.put("start.origin", run.origin);
+  sum.put("start.box", sim.box().describe());
+  sum.put("start.packing_fraction", sim.packingFraction());
+  sum.put("start.resumed_at_step", resumed ? sim.step() : std::int64_t{0});
+  sum.put("start.contacts", static_cast<std::int64_t>(s0.contacts));
+  sum.put("start.max_overlap_ratio", s0.maxOverlapRatio);
+  sum.put("start.total_energy", sim.initialEnergy());
+  sum.put("model.contact", sim.model().parameters().describe());
+  sum.put("model.kernel", std::string(sim.kernel().name));
+  sum.put("model.threads", scene.dem.threads);
+  sum.put("model.time_step", sim.timeStepChoice().describe());
+  sum.put("model.broad_phase", sim.neighbours().backend().describe());
+  sum.put("model.skin", sim.neighbours().skin());
 }
 
 void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,
@@ -76,6 +92,42 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
              static_cast<double>(sim.memoryBytes()) / (1024.0 * 1024.0), static_cast<double>(sim.memoryBytes()) / n,
              peakMemoryMiB());
   if (targetNotReached) fmt::print("TARGET NOT REACHED    {}\n", *targetNotReached);
+  SummaryJson& sum = summary();
+  if (interrupted) sum.put("report.interrupted_by_signal", interruptSignal());
+  if (targetNotReached) sum.put("report.target_not_reached", *targetNotReached);
+  sum.put("report.steps", sim.step());
+  sum.put("report.steps_run", stepsRun);
+  sum.put("report.steps_requested", total);
+  sum.put("report.dt", sim.dt());
+  sum.put("report.simulated_time", sim.time());
+  sum.put("report.contacts", static_cast<std::int64_t>(c.contacts));
+  sum.put("report.wall_contacts", static_cast<std::int64_t>(c.wallContacts));
+  sum.put("report.contacts_per_particle", 2.0 * static_cast<double>(c.contacts) / n);
+  sum.put("report.max_overlap_ratio", c.maxOverlapRatio);
+  sum.put("report.energy.kinetic", e.kinetic);
+  sum.put("report.energy.rotational", e.rotational);
+  sum.put("report.energy.elastic", e.elastic);
+  sum.put("report.energy.potential", e.potential);
+  sum.put("report.energy.total", e.total());
+  sum.put("report.energy.start", sim.initialEnergy());
+  if (sim.initialEnergy() != 0.0) {
+    sum.put("report.energy.relative_change", (e.total() - sim.initialEnergy()) / std::abs(sim.initialEnergy()));
+  } else {
+    sum.undefined("report.energy.relative_change", "the start energy is 0");
+  }
+  sum.put("report.time.loop_seconds", loopSeconds);
+  sum.put("report.time.us_per_particle_step", loopSeconds * perParticleStep);
+  sum.put("report.time.broad_phase_seconds", t.broadPhase);
+  sum.put("report.time.force_seconds", t.force);
+  sum.put("report.time.integration_seconds", t.integration);
+  sum.put("report.time.check_seconds", t.check);
+  sum.put("report.neighbours.rebuilds", static_cast<std::int64_t>(sim.rebuilds()));
+  sum.put("report.neighbours.candidate_pairs", static_cast<std::int64_t>(sim.neighbours().list().pairCount()));
+  sum.put("report.memory.bytes_held", static_cast<std::int64_t>(sim.memoryBytes()));
+  sum.put("report.memory.peak_rss_mib", peakMemoryMiB());
+  if (!scene.finalState.empty()) sum.put("outputs.final_state", scene.finalState);
+  if (!scene.timeseries.empty()) sum.put("outputs.time_series", scene.timeseries);
+  if (!scene.checkpoint.empty()) sum.put("outputs.checkpoint", scene.checkpoint);
   if (!scene.finalState.empty()) fmt::print("final state           {}\n", scene.finalState);
   if (!scene.timeseries.empty()) fmt::print("time series           {}\n", scene.timeseries);
   if (!run.checkpointNote.empty()) {

@@ -11,6 +11,7 @@
 
 #include "apps/polydem/exit_codes.hpp"
 #include "apps/polydem/relax.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/errors.hpp"
 #include "core/io/attributes.hpp"
 #include "core/io/safe_output.hpp"
@@ -84,6 +85,8 @@ std::string tabulate(const RelaxScene& scene, const SweepSpec& sweep, const Star
              elastic ? "energy drift" : "energy vs finest", "max |dx| / r_min");
   const double n = static_cast<double>(start.particles.count());
   const integrators::RunEnd reference{finest.run.initialEnergy, finest.run.finalEnergy, finest.run.positions};
+  std::vector<double> values, wall, perStep, energyError, positionError;
+  std::vector<std::int64_t> steps;
   for (const SweepRow& r : rows) {
     const integrators::ConvergenceError error = integrators::convergenceError(
         {r.run.initialEnergy, r.run.finalEnergy, r.run.positions}, reference, elastic, start.box, rmin);
@@ -93,7 +96,27 @@ std::string tabulate(const RelaxScene& scene, const SweepSpec& sweep, const Star
                energyText, error.position);
     table += fmt::format("{},{},{:.6g},{:.6g},{},{:.6e}\n", r.value, r.steps, r.run.wallSeconds, us,
                          error.energy ? fmt::format("{:.6e}", *error.energy) : std::string(""), error.position);
+    values.push_back(r.value);
+    steps.push_back(r.steps);
+    wall.push_back(r.run.wallSeconds);
+    perStep.push_back(us);
+    energyError.push_back(error.energy ? *error.energy : std::nan(""));
+    positionError.push_back(error.position);
   }
+  SummaryJson& sum = summary();
+  sum.put("sweep.key", sweep.what);
+  sum.put("sweep.error_reference", elastic ? "energy drift" : "energy vs finest");
+  sum.put("sweep.values", values);
+  sum.put("sweep.steps", steps);
+  sum.put("sweep.wall_seconds", wall);
+  sum.put("sweep.us_per_particle_step", perStep);
+  // An undefined energy error (a zero reference energy) makes the column undefined, never NaN.
+  if (std::all_of(energyError.begin(), energyError.end(), [](double v) { return std::isfinite(v); })) {
+    sum.put("sweep.energy_error", energyError);
+  } else {
+    sum.undefined("sweep.energy_error", "undefined for some rows: a zero reference energy");
+  }
+  sum.put("sweep.position_error", positionError);
   return table;
 }
 

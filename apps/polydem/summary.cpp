@@ -70,7 +70,7 @@ struct ValueText {
 // The dotted keys as a tree, children in first-put order.
 struct Node {
   std::string name;
-  const RunSummary::Value* value = nullptr;
+  const SummaryJson::Value* value = nullptr;
   std::vector<std::unique_ptr<Node>> children;
 
   Node& child(std::string_view childName) {
@@ -120,7 +120,7 @@ std::string statusWord(int exitCode) {
 
 }  // namespace
 
-void RunSummary::set(std::string_view key, Value value) {
+void SummaryJson::set(std::string_view key, Value value) {
   for (auto& [k, v] : entries_) {
     if (k == key) {
       v = std::move(value);
@@ -130,31 +130,31 @@ void RunSummary::set(std::string_view key, Value value) {
   entries_.emplace_back(std::string(key), std::move(value));
 }
 
-void RunSummary::put(std::string_view key, double value) {
+void SummaryJson::put(std::string_view key, double value) {
   if (std::isfinite(value)) {
     set(key, value);
   } else {
     undefined(key, fmt::format("not a finite number ({})", value));
   }
 }
-void RunSummary::put(std::string_view key, std::int64_t value) { set(key, value); }
-void RunSummary::put(std::string_view key, bool value) { set(key, value); }
-void RunSummary::put(std::string_view key, std::string value) { set(key, std::move(value)); }
-void RunSummary::put(std::string_view key, std::vector<double> values) {
+void SummaryJson::put(std::string_view key, std::int64_t value) { set(key, value); }
+void SummaryJson::put(std::string_view key, bool value) { set(key, value); }
+void SummaryJson::put(std::string_view key, std::string value) { set(key, std::move(value)); }
+void SummaryJson::put(std::string_view key, std::vector<double> values) {
   if (std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); })) {
     set(key, std::move(values));
   } else {
     undefined(key, "contains a non-finite number");
   }
 }
-void RunSummary::put(std::string_view key, std::vector<std::int64_t> values) { set(key, std::move(values)); }
+void SummaryJson::put(std::string_view key, std::vector<std::int64_t> values) { set(key, std::move(values)); }
 
-void RunSummary::undefined(std::string_view key, std::string reason) {
+void SummaryJson::undefined(std::string_view key, std::string reason) {
   set(key, std::monostate{});
   set(std::string(key) + "_undefined", std::move(reason));
 }
 
-std::string RunSummary::toJson() const {
+std::string SummaryJson::toJson() const {
   Node root;
   for (const auto& [key, value] : entries_) {
     Node* node = &root;
@@ -172,8 +172,8 @@ std::string RunSummary::toJson() const {
   return out + "\n";
 }
 
-RunSummary& summary() {
-  static RunSummary instance;
+SummaryJson& summary() {
+  static SummaryJson instance;
   return instance;
 }
 
@@ -184,7 +184,7 @@ void addSummaryOption(CLI::App& cmd, std::string& path) {
 }
 
 void recordInvocation(int argc, const char* const* argv, const CLI::App& cmd) {
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   std::vector<std::string> args(argv, argv + argc);
   std::string line;
   for (const std::string& a : args) line += (line.empty() ? "" : " ") + a;
@@ -213,7 +213,7 @@ void recordInvocation(int argc, const char* const* argv, const CLI::App& cmd) {
 }
 
 void recordExit(int exitCode, const std::string& message) {
-  RunSummary& s = summary();
+  SummaryJson& s = summary();
   s.put("exit.code", exitCode);
   s.put("exit.status", statusWord(exitCode));
   if (!message.empty()) s.put("exit.message", message);

@@ -17,7 +17,7 @@
 
 namespace polydem::app {
 
-class RunSummary {
+class SummaryJson {
  public:
   using Value = std::variant<std::monostate, bool, std::int64_t, double, std::string, std::vector<double>,
                              std::vector<std::int64_t>>;
@@ -49,7 +49,7 @@ class RunSummary {
 };
 
 /// The summary of this process's run (one subcommand per process).
-RunSummary& summary();
+SummaryJson& summary();
 
 /// Adds --summary-json to `cmd`; `path` receives the file name.
 void addSummaryOption(CLI::App& cmd, std::string& path);

@@ -48,4 +48,52 @@ sum_before=$(sha256sum gas.txt)
 [ $? -eq 2 ] || fail "--summary-json onto the input should exit 2"
 grep -q "is the input" out.log || fail "no message naming the input: $(cat out.log)"
 [ "$(sha256sum gas.txt)" = "$sum_before" ] || fail "the input was changed"
+# relax: the report's energies at full precision, the scene text; a sweep's table as arrays.
+cat > tiny.toml <<'TOML'
+[particles]
+count = 300
+distribution = "uniform-volume"
+omega = 3.0
+packing_fraction = 0.4
+[contact]
+stiffness = 1000.0
+restitution = 0.8
+[run]
+steps = 60
+[output]
+final = "tiny_final.txt"
+TOML
+"$polydem" relax tiny.toml -q --summary-json relax.json > relax.log 2>&1 || fail "relax exit $?: $(cat relax.log)"
+kinetic=$(sed -n 's/^energy (J) *kinetic \([^,]*\),.*/\1/p' relax.log)
+$py - "$kinetic" <<'PY' || fail "relax.json"
+import json, sys
+d = json.load(open("relax.json"))
+k = d["report"]["energy"]["kinetic"]
+assert abs(k - float(sys.argv[1])) <= 1e-5 * abs(k) and k > 0, (k, sys.argv[1])
+assert d["report"]["steps"] == 60 and "count = 300" in d["scene"]["text"], d["report"]
+assert d["outputs"]["final_state"] == "tiny_final.txt" and d["exit"]["code"] == 0
+PY
+"$polydem" relax tiny.toml -q --sweep dt-factor=20,40 --summary-json sweep.json > sweep.log 2>&1 || fail "sweep exit $?"
+$py -c "
+import json; d = json.load(open('sweep.json'))['sweep']
+assert d['key'] == 'dt-factor' and d['values'] == [20, 40] and len(d['position_error']) == 2, d" || fail "sweep.json"
+
+# jam: phi and the contact count as printed; a target not reached ends with exit code 4 in the summary.
+"$polydem" jam -n 120 --seed 2 --schedule 1e-2:1e2,1e-3 --target-pressure 1e6 -o jam.h5 --summary-json jam.json \
+  > jam.log 2>&1 || fail "jam exit $?"
+jphi=$(sed -n 's/^packing fraction *//p' jam.log)
+$py - "$jphi" <<'PY' || fail "jam.json"
+import json, sys
+d = json.load(open("jam.json"))
+assert abs(d["report"]["packing_fraction"] - float(sys.argv[1])) < 5e-9, d["report"]
+assert d["report"]["target_reached"] is True and d["report"]["reduced_pressure"] >= 1e6, d["report"]
+PY
+"$polydem" jam -n 120 --seed 2 --schedule 1e-2 --max-collisions 2 --target-pressure 1e6 --summary-json short.json \
+  > short.log 2>&1
+code=$?
+$py - "$code" <<'PY' || fail "short.json (exit $code): $(tail -3 short.log)"
+import json, sys
+d = json.load(open("short.json"))
+assert d["exit"]["code"] == int(sys.argv[1]) and d["exit"]["code"] == 4 and d["report"]["target_reached"] is False, d["exit"]
+PY
 echo "summary-json: ok"
