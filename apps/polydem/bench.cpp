@@ -24,6 +24,7 @@
 
 #include "apps/polydem/bench_common.hpp"
 #include "apps/polydem/commands.hpp"
+#include "apps/polydem/summary.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/io/safe_output.hpp"
@@ -106,6 +107,10 @@ int runBench(const bench::BenchOptions& opt, const std::string& given) {
   markdown += fmt::format("Total run time: {:.1f} s\n", clock.seconds());
   io::writeFileAtomically(std::filesystem::path(opt.out) / "README.md", markdown);
   fmt::print("report written to {}/README.md ({:.1f} s)\n", opt.out, clock.seconds());
+  summary().put("bench.suite", opt.suite);
+  summary().put("bench.report", (std::filesystem::path(opt.out) / "README.md").string());
+  summary().put("bench.total_seconds", clock.seconds());
+  summary().put("bench.machine", machineDescription());
   return status;
 }
 

@@ -1,14 +1,19 @@
 // polydem bench, suite backends.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of backends.csv, also the table `tables.backends` of --summary-json.
+constexpr const char* kBackendsColumns =
+    "distribution,omega,packing,placement,backend,us_per_particle,spread,pairs,contacts,pair_tests_per_particle,cell_"
+    "accesses_per_particle,bytes_per_particle,configuration";
 
 int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   const std::filesystem::path dir = opt.out;
   ReportFile csvFile(dir / "backends.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "distribution,omega,packing,placement,backend,us_per_particle,spread,pairs,contacts,pair_tests_per_particle,"
-         "cell_accesses_per_particle,bytes_per_particle,configuration\n";
+  csv << kBackendsColumns << "\n";
   const Index count = opt.count > 0 ? opt.count : (quick ? 4000 : 100000);
   std::vector<std::pair<std::string, double>> dists = {
       {"mono", 1.0}, {"bi", 10.0}, {"uniform-radius", 50.0}, {"uniform-volume", 10.0}, {"uniform-volume", 50.0}};
@@ -82,6 +87,13 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
                            scene.placement, name, 1e6 * t.seconds / count, t.spread, t.pairs, t.contacts,
                            static_cast<double>(t.pairTests) / count, static_cast<double>(t.cellAccesses) / count,
                            static_cast<double>(t.bytes) / count, t.description);
+        summary().appendRow(
+            "tables.backends", kBackendsColumns,
+            {cell(scene.label), cell(scene.config.radius.maxCoeff() / scene.config.radius.minCoeff()),
+             cell(scene.packing), cell(scene.placement), cell(name), cell(1e6 * t.seconds / count), cell(t.spread),
+             cell(t.pairs), cell(t.contacts), cell(static_cast<double>(t.pairTests) / count),
+             cell(static_cast<double>(t.cellAccesses) / count), cell(static_cast<double>(t.bytes) / count),
+             cell(t.description)});
         markdown += fmt::format(" {:.3f} |", 1e6 * t.seconds / count);
         matrix << fmt::format(" {:.5f}", 1e6 * t.seconds / count);
         fmt::print("  {:<28} {:.2f} {:<12} {:10.4f} us/particle  {:8} pairs  {:7.1f} B/particle\n", scene.label,
@@ -106,6 +118,7 @@ int runBackends(const BenchOptions& opt, std::string& markdown, bool quick) {
   markdown += runGnuplot(dir / "backends.gp", dir / "backends.png") ? "![backends](backends.png)\n\n"
                                                                     : "(gnuplot failed: no plot)\n\n";
   markdown += fmt::format("\nAll backends report the same pair counts: {}\n\n", agree ? "yes" : "**NO**");
+  summary().put("checks.backends_report_the_same_pairs", agree);
   return agree ? 0 : 1;
 }
 

@@ -1,7 +1,13 @@
 // polydem bench, suite levels: seed 000 Fig. 2.5.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of levels.csv, also the table `tables.levels` of --summary-json.
+constexpr const char* kLevelsColumns =
+    "distribution,omega,L,packing,m,us_per_particle,spread,slowdown,slowdown_model_ch21,slowdown_model_ch22,pair_tests_"
+    "per_particle,cell_accesses_per_particle,model_pair_tests,model_cell_accesses,model_T_per_particle,cell_sizes";
 
 namespace {
 
@@ -62,6 +68,11 @@ LevelsOutcome levelsCase(const BenchOptions& opt, const BenchScene& scene, const
         omega, r.L, scene.packing, r.m, 1e6 * r.t / count, r.spread, r.t / tMin, r.model21 / m21Min, r.model22 / m22Min,
         static_cast<double>(r.tcd) / count, static_cast<double>(r.tca) / count, r.modelCd, r.modelCa, r.model22,
         r.sizes);
+    summary().appendRow(
+        "tables.levels", kLevelsColumns,
+        {cell(series), cell(omega), cell(r.L), cell(scene.packing), cell(r.m), cell(1e6 * r.t / count), cell(r.spread),
+         cell(r.t / tMin), cell(r.model21 / m21Min), cell(r.model22 / m22Min), cell(static_cast<double>(r.tcd) / count),
+         cell(static_cast<double>(r.tca) / count), cell(r.modelCd), cell(r.modelCa), cell(r.model22), cell(r.sizes)});
     if (r.t == tMin) outcome.bestLevels = r.L;
   }
   outcome.speedupOverOneLevel = rows.front().t / tMin;
@@ -84,9 +95,7 @@ int runLevels(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
   const std::filesystem::path dir = opt.out;
   ReportFile csvFile(dir / "levels.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "distribution,omega,L,packing,m,us_per_particle,spread,slowdown,slowdown_model_ch21,slowdown_model_ch22,"
-         "pair_tests_per_particle,cell_accesses_per_particle,model_pair_tests,model_cell_accesses,model_T_per_particle,"
-         "cell_sizes\n";
+  csv << kLevelsColumns << "\n";
   markdown +=
       "## Slowdown factor against the number of levels (seed 000 Fig. 2.5)\n\n"
       "Top-Down HGrid, cell sizes from the seed's ch. 2.1 appendix procedure (equal particles per cell on every\n"

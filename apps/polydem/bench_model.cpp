@@ -1,7 +1,13 @@
 // polydem bench, suite model: seed 000 §2.2.5, predicted vs measured Top-Down / Bottom-Up across alpha and omega.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of model.csv, also the table `tables.model` of --summary-json.
+constexpr const char* kModelColumns =
+    "alpha,omega,N,packing,placement,method,L,model_T_per_particle,model_pair_tests,model_cell_accesses,counted_pair_"
+    "tests,counted_cell_accesses,counted_T_per_particle,us_per_particle,spread,cell_sizes";
 
 namespace {
 
@@ -38,8 +44,7 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
   const double K = broadphase::modelCostRatio();
   ReportFile csvFile(dir / "model.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "alpha,omega,N,packing,placement,method,L,model_T_per_particle,model_pair_tests,model_cell_accesses,"
-         "counted_pair_tests,counted_cell_accesses,counted_T_per_particle,us_per_particle,spread,cell_sizes\n";
+  csv << kModelColumns << "\n";
   markdown += fmt::format(
       "## Cost model against measurement: Top-Down, Bottom-Up and linked cell across alpha and omega "
       "(seed 000 §2.2.5)\n\n"
@@ -119,6 +124,12 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
                            breakdown.pairTests, breakdown.cellAccesses, static_cast<double>(t.pairTests) / count,
                            static_cast<double>(t.cellAccesses) / count, counted, 1e6 * t.seconds / count, t.spread,
                            sizes);
+        summary().appendRow(
+            "tables.model", kModelColumns,
+            {cell(alpha), cell(omega), cell(count), cell(scene.packing), cell(scene.placement), cell(m.name),
+             cell(levelsOf[k]), cell(m.predicted), cell(breakdown.pairTests), cell(breakdown.cellAccesses),
+             cell(static_cast<double>(t.pairTests) / count), cell(static_cast<double>(t.cellAccesses) / count),
+             cell(counted), cell(1e6 * t.seconds / count), cell(t.spread), cell(sizes)});
         if (k == 0) tdTime = t.seconds;
         if (k == 1) buTime = t.seconds;
         if (t.seconds < fastestTime) {

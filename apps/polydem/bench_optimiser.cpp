@@ -1,13 +1,18 @@
 // polydem bench, suite optimiser: the cost model's choice against an exhaustive measured search.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of optimiser.csv, also the table `tables.optimiser` of --summary-json.
+constexpr const char* kOptimiserColumns =
+    "distribution,omega,alpha,packing,mode,L,us_per_particle,model_T_per_particle,is_optimiser_choice";
 
 int runOptimiser(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
   const std::filesystem::path dir = opt.out;
   ReportFile csvFile(dir / "optimiser.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "distribution,omega,alpha,packing,mode,L,us_per_particle,model_T_per_particle,is_optimiser_choice\n";
+  csv << kOptimiserColumns << "\n";
   const Index count = opt.count > 0 ? opt.count : 100000;
   const double packing = opt.packing > 0 ? opt.packing : 0.4;
   markdown += fmt::format(
@@ -49,6 +54,9 @@ int runOptimiser(const BenchOptions& opt, std::string& markdown, bool /*quick*/)
         const char* modeName = mode == broadphase::CrossLevel::TopDown ? "td" : "bu";
         csv << fmt::format("{},{},{},{:.3f},{},{},{:.5f},{:.4f},0\n", c.kind, c.omega, c.alpha, scene.packing, modeName,
                            L, 1e6 * t.seconds / count, model);
+        summary().appendRow("tables.optimiser", kOptimiserColumns,
+                            {cell(c.kind), cell(c.omega), cell(c.alpha), cell(scene.packing), cell(modeName), cell(L),
+                             cell(1e6 * t.seconds / count), cell(model), cell(std::int64_t{0})});
         candidates.push_back({fmt::format("hgrid-{} L={}", modeName, L), std::move(grid), t.seconds, {}});
       }
     }
@@ -88,6 +96,9 @@ int runOptimiser(const BenchOptions& opt, std::string& markdown, bool /*quick*/)
     a.seconds = autoMedian;
     csv << fmt::format("{},{},{},{:.3f},auto,{},{:.5f},,1\n", c.kind, c.omega, c.alpha, scene.packing, choice,
                        1e6 * a.seconds / count);
+    summary().appendRow("tables.optimiser", kOptimiserColumns,
+                        {cell(c.kind), cell(c.omega), cell(c.alpha), cell(scene.packing), cell(std::string("auto")),
+                         cell(choice), cell(1e6 * a.seconds / count), cell(std::string("")), cell(std::int64_t{1})});
     markdown += fmt::format("| {}{} | {} | {:.4f} | {} | {:.4f} | {:.2f} |\n", scene.label,
                             c.alpha != 0 ? fmt::format(" alpha={:g}", c.alpha) : "", choice, 1e6 * a.seconds / count,
                             bestName, 1e6 * best / count, a.seconds / best);

@@ -1,14 +1,18 @@
 // polydem bench, suite scaling: cost per particle against N and against the size ratio.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of scaling.csv, also the table `tables.scaling` of --summary-json.
+constexpr const char* kScalingColumns =
+    "series,distribution,omega,N,packing,backend,us_per_particle,spread,bytes_per_particle,ratio_to_mono_linked_cell";
 
 int runScaling(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
   const std::filesystem::path dir = opt.out;
   ReportFile csvFile(dir / "scaling.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "series,distribution,omega,N,packing,backend,us_per_particle,spread,bytes_per_particle,ratio_to_mono_linked_"
-         "cell\n";
+  csv << kScalingColumns << "\n";
   const double packing = opt.packing > 0 ? opt.packing : 0.4;
   const std::vector<Index> sizes =
       opt.count > 0 ? std::vector<Index>{opt.count} : std::vector<Index>{10000, 100000, 1000000};
@@ -31,8 +35,16 @@ int runScaling(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
     const Timed tp = timeBackend(*au, {p.config.position, p.config.radius}, p.config.box, 0.1, opt.repeat);
     csv << fmt::format("N,mono,1,{},{:.3f},linked-cell,{:.5f},{:.3f},{:.1f},1\n", n, m.packing, 1e6 * tm.seconds / n,
                        tm.spread, static_cast<double>(tm.bytes) / n);
+    summary().appendRow("tables.scaling", kScalingColumns,
+                        {cell(std::string("N")), cell(std::string("mono")), cell(std::int64_t{1}), cell(n),
+                         cell(m.packing), cell(std::string("linked-cell")), cell(1e6 * tm.seconds / n), cell(tm.spread),
+                         cell(static_cast<double>(tm.bytes) / n), cell(std::int64_t{1})});
     csv << fmt::format("N,uniform-volume,50,{},{:.3f},auto,{:.5f},{:.3f},{:.1f},{:.4f}\n", n, p.packing,
                        1e6 * tp.seconds / n, tp.spread, static_cast<double>(tp.bytes) / n, tp.seconds / tm.seconds);
+    summary().appendRow("tables.scaling", kScalingColumns,
+                        {cell(std::string("N")), cell(std::string("uniform-volume")), cell(std::int64_t{50}), cell(n),
+                         cell(p.packing), cell(std::string("auto")), cell(1e6 * tp.seconds / n), cell(tp.spread),
+                         cell(static_cast<double>(tp.bytes) / n), cell(tp.seconds / tm.seconds)});
     markdown += fmt::format("| {} | {:.4f} | {:.4f} | {:.2f} |\n", n, 1e6 * tm.seconds / n, 1e6 * tp.seconds / n,
                             tp.seconds / tm.seconds);
     fmt::print("  N = {}: mono linked-cell {:.4f} us, UV50 auto {:.4f} us, ratio {:.2f}\n", n, 1e6 * tm.seconds / n,
@@ -63,6 +75,10 @@ int runScaling(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
     }
     csv << fmt::format("omega,uniform-volume,{},{},{:.3f},auto,{:.5f},{:.3f},{:.1f},{:.4f}\n", omega, n, p.packing,
                        1e6 * tp.seconds / n, tp.spread, static_cast<double>(tp.bytes) / n, tp.seconds / tm.seconds);
+    summary().appendRow("tables.scaling", kScalingColumns,
+                        {cell(std::string("omega")), cell(std::string("uniform-volume")), cell(omega), cell(n),
+                         cell(p.packing), cell(std::string("auto")), cell(1e6 * tp.seconds / n), cell(tp.spread),
+                         cell(static_cast<double>(tp.bytes) / n), cell(tp.seconds / tm.seconds)});
     markdown += fmt::format("| {:g}{} | {:.4f} | {:.4f} | {:.2f} | {} |\n", omega,
                             p.config.box.fullyPeriodic() ? "" : " (walls)", 1e6 * tp.seconds / n, 1e6 * tm.seconds / n,
                             tp.seconds / tm.seconds, lcText);

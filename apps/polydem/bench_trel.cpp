@@ -1,7 +1,13 @@
 // polydem bench, suite trel: seed 000 Fig. 2.6, DEM time relative to the monodisperse system against N.
 #include "apps/polydem/bench_common.hpp"
+#include "apps/polydem/summary.hpp"
 
 namespace polydem::app::bench {
+
+// The columns of trel.csv, also the table `tables.trel` of --summary-json.
+constexpr const char* kTrelColumns =
+    "system,N,packing,placement,backend,broad_phase_choice,steps,us_per_particle_step,spread,t_rel,broad_phase_share,"
+    "force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle";
 
 namespace {
 
@@ -78,8 +84,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
                                        {"uniform-volume", 50.0, "auto"}};
   ReportFile csvFile(dir / "trel.csv");
   std::ofstream& csv = csvFile.stream();
-  csv << "system,N,packing,placement,backend,broad_phase_choice,steps,us_per_particle_step,spread,t_rel,"
-         "broad_phase_share,force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle\n";
+  csv << kTrelColumns << "\n";
   markdown += fmt::format(
       "## DEM time relative to the monodisperse system against N (seed 000 Fig. 2.6)\n\n"
       "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere). Every state\n"
@@ -144,6 +149,13 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
           t / mono, c.phases.broadPhase * perStep, c.phases.force * perStep, c.phases.integration * perStep,
           c.sim->rebuilds(), static_cast<double>(c.sim->neighbours().list().pairCount()) / n,
           static_cast<double>(c.sim->memoryBytes()) / n);
+      summary().appendRow(
+          "tables.trel", kTrelColumns,
+          {cell(c.label), cell(n), cell(c.packing), cell(c.placement), cell(c.backend), cell(choice), cell(steps),
+           cell(1e6 * t / (static_cast<double>(steps) * n)), cell(spread), cell(t / mono),
+           cell(c.phases.broadPhase * perStep), cell(c.phases.force * perStep), cell(c.phases.integration * perStep),
+           cell(c.sim->rebuilds()), cell(static_cast<double>(c.sim->neighbours().list().pairCount()) / n),
+           cell(static_cast<double>(c.sim->memoryBytes()) / n)});
       // The table keeps the choice short ("auto -> hgrid-td L=4"); the CSV has the whole description.
       const std::string shortChoice = choice.substr(0, std::min(choice.find(" sizes"), choice.find(" cells of")));
       markdown +=

@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addPredict);
   // --summary-json on the subcommands whose reports feed it (apps/polydem/summary.hpp).
   std::string summaryPath;
-  const std::set<std::string> withSummary = {"pairs", "relax", "jam", "analyze"};
+  const std::set<std::string> withSummary = {"pairs", "relax", "jam", "analyze", "bench"};
   for (auto& [sub, run] : runners) {
     if (withSummary.count(sub->get_name()) > 0) polydem::app::addSummaryOption(*sub, summaryPath);
   }

@@ -67,10 +67,17 @@ struct ValueText {
   }
 };
 
-// The dotted keys as a tree, children in first-put order.
+std::string cellText(const SummaryJson::Cell& cell) {
+  if (const auto* i = std::get_if<std::int64_t>(&cell)) return fmt::format("{}", *i);
+  if (const auto* d = std::get_if<double>(&cell)) return number(*d);
+  return jsonString(std::get<std::string>(cell));
+}
+
+// The dotted keys as a tree, children in first-put order; a node holds a value, a table or children.
 struct Node {
   std::string name;
   const SummaryJson::Value* value = nullptr;
+  std::string tableText;
   std::vector<std::unique_ptr<Node>> children;
 
   Node& child(std::string_view childName) {
@@ -91,6 +98,8 @@ void writeNode(const Node& node, int depth, std::string& out) {
     out += indent + jsonString(c.name) + ": ";
     if (!c.children.empty()) {
       writeNode(c, depth + 1, out);  // a key that is also a group keeps the group (put() prevents both)
+    } else if (!c.tableText.empty()) {
+      out += c.tableText;
     } else if (c.value != nullptr) {
       out += std::visit(ValueText{}, *c.value);
     } else {
@@ -154,18 +163,53 @@ void SummaryJson::undefined(std::string_view key, std::string reason) {
   set(std::string(key) + "_undefined", std::move(reason));
 }
 
+void SummaryJson::appendRow(std::string_view table, std::string_view columns, std::vector<Cell> row) {
+  if (!enabled_) return;
+  for (auto& [name, t] : tables_) {
+    if (name == table) {
+      t.rows.push_back(std::move(row));
+      return;
+    }
+  }
+  Table t;
+  std::string_view rest = columns;
+  while (!rest.empty() && (rest.back() == '\n' || rest.back() == ' ')) rest.remove_suffix(1);
+  while (!rest.empty()) {
+    const std::size_t comma = rest.find(',');
+    t.columns.emplace_back(rest.substr(0, comma));
+    if (comma == std::string_view::npos) break;
+    rest.remove_prefix(comma + 1);
+  }
+  t.rows.push_back(std::move(row));
+  tables_.emplace_back(std::string(table), std::move(t));
+}
+
+namespace {
+Node& nodeAt(Node& root, const std::string& key) {
+  Node* node = &root;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t dot = key.find('.', start);
+    node = &node->child(std::string_view(key).substr(start, dot == std::string::npos ? dot : dot - start));
+    if (dot == std::string::npos) return *node;
+    start = dot + 1;
+  }
+}
+}  // namespace
+
 std::string SummaryJson::toJson() const {
   Node root;
-  for (const auto& [key, value] : entries_) {
-    Node* node = &root;
-    std::size_t start = 0;
-    while (true) {
-      const std::size_t dot = key.find('.', start);
-      node = &node->child(std::string_view(key).substr(start, dot == std::string::npos ? dot : dot - start));
-      if (dot == std::string::npos) break;
-      start = dot + 1;
+  for (const auto& [key, value] : entries_) nodeAt(root, key).value = &value;
+  for (const auto& [key, table] : tables_) {
+    std::string text = "{\"columns\": [";
+    for (std::size_t k = 0; k < table.columns.size(); ++k) text += (k ? ", " : "") + jsonString(table.columns[k]);
+    text += "], \"rows\": [";
+    for (std::size_t r = 0; r < table.rows.size(); ++r) {
+      text += r ? ",\n    [" : "\n    [";
+      for (std::size_t k = 0; k < table.rows[r].size(); ++k) text += (k ? ", " : "") + cellText(table.rows[r][k]);
+      text += "]";
     }
-    node->value = &value;
+    nodeAt(root, key).tableText = text + "]}";
   }
   std::string out;
   writeNode(root, 0, out);

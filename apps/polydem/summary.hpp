@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <variant>
 #include <vector>
 
@@ -35,6 +36,13 @@ class SummaryJson {
   /// `key` is null, and `key`_undefined holds why (e.g. "empty backbone").
   void undefined(std::string_view key, std::string reason);
 
+  /// One cell of a table row: an integer, a number (full precision) or text.
+  using Cell = std::variant<std::int64_t, double, std::string>;
+  /// Appends a row to the table under the dotted key `table` (columns from the first call; a CSV header
+  /// line "a,b,c" is accepted as is). Written as {"columns": [...], "rows": [[...], ...]}. No-op unless
+  /// enabled(), so report loops pay nothing without --summary-json.
+  void appendRow(std::string_view table, std::string_view columns, std::vector<Cell> row);
+
   /// True when a run asked for a summary (only then is put() worth its cost in a loop).
   bool enabled() const { return enabled_; }
   void enable() { enabled_ = true; }
@@ -44,9 +52,28 @@ class SummaryJson {
 
  private:
   void set(std::string_view key, Value value);
+  struct Table {
+    std::vector<std::string> columns;
+    std::vector<std::vector<Cell>> rows;
+  };
   std::vector<std::pair<std::string, Value>> entries_;
+  std::vector<std::pair<std::string, Table>> tables_;
   bool enabled_ = false;
 };
+
+/// A table cell from a number or text (integers stay integers; text: std::string, string_view, char*).
+template <class T>
+SummaryJson::Cell cell(const T& value) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return std::int64_t{value ? 1 : 0};
+  } else if constexpr (std::is_integral_v<T>) {
+    return static_cast<std::int64_t>(value);
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return static_cast<double>(value);
+  } else {
+    return std::string(value);
+  }
+}
 
 /// The summary of this process's run (one subcommand per process).
 SummaryJson& summary();
