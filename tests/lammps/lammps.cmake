@@ -21,3 +21,27 @@ add_test(NAME lammps_gran_hooke_predicted_differs
                  gran_hooke_poly.log 6 --expect-fewer --set run.dashpot_velocity=predicted)
 set_tests_properties(lammps_gran_hooke_damped lammps_gran_hooke_elastic lammps_gran_hooke_predicted_differs
                      PROPERTIES TIMEOUT 120 LABELS lammps)
+
+# Scene keys of the mass-velocity dashpot: every bad or missing value is a ConfigError (exit code 2)
+# naming the key, before anything is computed.
+set(_scene ${CMAKE_CURRENT_LIST_DIR}/gran_hooke_poly.toml)
+function(polydem_lammps_scene_error name pass)
+  add_test(NAME lammps_scene_${name}
+           COMMAND bash ${PROJECT_SOURCE_DIR}/tests/cli/cli_check.sh 2 "${pass}" "" $<TARGET_FILE:polydem> relax
+                   ${ARGN})
+  set_tests_properties(lammps_scene_${name} PROPERTIES TIMEOUT 60 LABELS lammps)
+endfunction()
+polydem_lammps_scene_error(missing_gamma "missing required key contact.gamma_n"
+                           ${CMAKE_CURRENT_LIST_DIR}/mass_velocity_no_gamma.toml)
+polydem_lammps_scene_error(negative_gamma "contact.gamma_n must be >= 0" ${_scene} --set contact.gamma_n=-1.0)
+polydem_lammps_scene_error(text_gamma "contact.gamma_n \\(from --set\\) must be a number" ${_scene}
+                           --set contact.gamma_n=fast)
+polydem_lammps_scene_error(restitution_too "contact.restitution and contact.damping = \"mass-velocity\" exclude"
+                           ${_scene} --set contact.restitution=0.5)
+polydem_lammps_scene_error(gamma_without_mass_velocity "contact.gamma_n applies to contact.damping = \"mass-velocity\""
+                           ${_scene} --set contact.damping=restitution)
+polydem_lammps_scene_error(unknown_damping "contact.damping = \"viscous\" is not valid; expected one of: restitution, mass-velocity"
+                           ${_scene} --set contact.damping=viscous)
+polydem_lammps_scene_error(hertz_mass_velocity "applies to the linear law only" ${_scene} --set contact.law=hertz)
+polydem_lammps_scene_error(unknown_dashpot_velocity "run.dashpot_velocity = \"full\" is not valid; expected one of: predicted, half-step"
+                           ${_scene} --set run.dashpot_velocity=full)
