@@ -19,7 +19,14 @@ add_test(NAME lammps_gran_hooke_elastic
 add_test(NAME lammps_gran_hooke_predicted_differs
          COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/predicted
                  gran_hooke_poly.log 6 --expect-fewer --set run.dashpot_velocity=predicted)
+# Friction (gran/hooke/history, xmu = 0.5, Kt = 2/7 Kn, gamma_t = 0) against polydem's Cundall-Strack
+# spring with the same constants: the same physics up to the differences listed in docs/lammps.md (lever
+# arms r vs r - d/2, spring projection), 2.5 digits reached, 2 required.
+add_test(NAME lammps_gran_hooke_history_approximate
+         COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history
+                 gran_hooke_poly_history.log 2 --set contact.friction=0.5)
 set_tests_properties(lammps_gran_hooke_damped lammps_gran_hooke_elastic lammps_gran_hooke_predicted_differs
+                     lammps_gran_hooke_history_approximate
                      PROPERTIES TIMEOUT 120 LABELS lammps)
 
 # Scene keys of the mass-velocity dashpot: every bad or missing value is a ConfigError (exit code 2)
