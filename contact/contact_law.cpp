@@ -64,6 +64,10 @@ void ContactParameters::validate() const {
         "by contact.restitution)",
         dampingRate));
   }
+  if (tangential == TangentialModel::LammpsHistory && normal != NormalModel::Linear) {
+    throw ConfigError(
+        "contact.tangential = \"lammps-history\" applies to the linear law only (LAMMPS gran/hooke/history)");
+  }
   if (normal == NormalModel::Hertz && restitution < 1e-3) {
     throw ConfigError(
         fmt::format("contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
@@ -88,6 +92,7 @@ std::string ContactParameters::describe() const {
   if (friction > 0.0) {
     text += fmt::format(", mu = {:g}, k_t/k_n = {:g}, c_t/c_n = {:g}", friction, tangentialStiffnessRatio,
                         tangentialDampingRatio);
+    if (tangential == TangentialModel::LammpsHistory) text += " (lammps-history)";
   } else {
     text += ", frictionless";
   }

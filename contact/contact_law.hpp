@@ -44,6 +44,9 @@ enum class NormalModel { Linear, Hertz };
 enum class StiffnessScaling { Constant, Radius };
 /// How the normal dashpot is set: from e per pair (exact restitution), or one mass-velocity rate gamma_n.
 enum class DampingModel { Restitution, MassVelocity };
+/// The tangential spring: polydem's Cundall-Strack, or LAMMPS gran/hooke/history's variant of it (lever
+/// arms r_i, r_j; spring projected after the increment; Coulomb cap mu |F_n|), for reproducing LAMMPS.
+enum class TangentialModel { CundallStrack, LammpsHistory };
 
 /// What a scene asks for. Keys in messages are the scene-file keys (`contact.restitution`, ...).
 struct ContactParameters {
@@ -58,6 +61,7 @@ struct ContactParameters {
   double referenceVelocity = 0.0;                    ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
   DampingModel damping = DampingModel::Restitution;  ///< contact.damping
   double dampingRate = 0.0;                          ///< gamma_n (1/s), mass-velocity only: F_n += gamma_n m_eff d'
+  TangentialModel tangential = TangentialModel::CundallStrack;  ///< contact.tangential (with friction)
 
   bool usesFriction() const { return friction > 0.0; }
   /// The normal dashpot is on (e < 1, or gamma_n > 0).
@@ -182,6 +186,20 @@ struct CundallStrack {
   static constexpr const char* kName = "cundall-strack";
 };
 
+/// LAMMPS gran/hooke/history's tangential spring (Silbert et al., Phys. Rev. E 64, 051302 (2001)): the
+/// spring xi grows by v_t dt, is then projected onto the tangent plane (which shortens it), F_t = -k_t xi -
+/// c_t v_t is capped at mu |F_n| (xi reset to the capped force); the contact-point velocity and the torques
+/// use the radii r_i, r_j as lever arms (polydem's Cundall-Strack: r_i - d/2, r_j - d/2). Same constants as
+/// CundallStrack: k_t = ratio k_n (LAMMPS Kt / Kn), c_t = ratio_c c_n (with mass-velocity damping
+/// c_n = gamma_n m_eff, so ratio_c = LAMMPS gamma_t / gamma_n).
+struct LammpsHistory {
+  using Params = CundallStrack::Params;
+  static constexpr bool kUsesRotation = true;
+  static constexpr int kHistorySize = 3;  ///< spring displacement xi (m), world frame
+  static constexpr bool kFullRadiusArms = true;
+  static constexpr const char* kName = "lammps-history";
+};
+
 template <class Normal, class Tangential = NoTangential>
 struct ContactLaw {
   using NormalLaw = Normal;
@@ -200,6 +218,8 @@ using LinearFrictionLaw = ContactLaw<LinearNormal, CundallStrack>;
 using HertzFrictionLaw = ContactLaw<HertzNormal, CundallStrack>;
 using LinearMassVelocityLaw = ContactLaw<LinearMassVelocityNormal>;
 using LinearMassVelocityFrictionLaw = ContactLaw<LinearMassVelocityNormal, CundallStrack>;
+using LinearLammpsLaw = ContactLaw<LinearNormal, LammpsHistory>;
+using LinearMassVelocityLammpsLaw = ContactLaw<LinearMassVelocityNormal, LammpsHistory>;
 
 /// Validated parameters plus the constants derived from them (zeta or alpha). Cheap to copy.
 class ContactModel {

@@ -311,6 +311,10 @@ void readContact(Section contact, RelaxScene& s) {
   c.dampingRate = contact.number("gamma_n", c.dampingRate);
   c.restitution = contact.number("restitution", c.restitution);
   c.friction = contact.number("friction", c.friction);
+  c.tangential =
+      contact.choice("tangential", "cundall-strack", {"cundall-strack", "lammps-history"}) == "lammps-history"
+          ? contact::TangentialModel::LammpsHistory
+          : contact::TangentialModel::CundallStrack;
   c.tangentialStiffnessRatio = contact.number("tangential_stiffness_ratio", c.tangentialStiffnessRatio);
   c.tangentialDampingRatio = contact.number("tangential_damping_ratio", c.tangentialDampingRatio);
   c.referenceVelocity = contact.number("reference_velocity", c.referenceVelocity);
@@ -502,6 +506,8 @@ std::string defaultSceneToml() {
   t += fmt::format("restitution = {}\n", num(c.restitution));
   t += "# gamma_n = 5000.0  # required with damping = \"mass-velocity\": 1/s, F_n += gamma_n m_eff d'\n";
   t += fmt::format("friction = {}\n", num(c.friction));
+  t += fmt::format("tangential = \"{}\"  # cundall-strack, or lammps-history (LAMMPS gran/hooke/history)\n",
+                   c.tangential == contact::TangentialModel::LammpsHistory ? "lammps-history" : "cundall-strack");
   t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
   t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",

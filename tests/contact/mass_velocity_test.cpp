@@ -93,5 +93,27 @@ TEST(MassVelocity, KernelIsTheMassVelocityOne) {
   EXPECT_EQ(selectForceKernel(model, {}, true).name, "linear(mass-velocity)+cundall-strack [walls gravity viscous]");
 }
 
+TEST(LammpsHistory, SelectedWithFrictionOnLinearLawsOnly) {
+  ContactParameters p = massVelocity(1.0, 1.0);
+  p.friction = 0.5;
+  p.tangential = TangentialModel::LammpsHistory;
+  const ForceKernel k = selectForceKernel(ContactModel(p), {});
+  EXPECT_EQ(k.name, "linear(mass-velocity)+lammps-history [no walls, gravity or damping]");
+  EXPECT_TRUE(k.rotation);
+  EXPECT_EQ(k.historyWidth, 3);
+  ContactParameters restitution;
+  restitution.stiffness = 1.0;
+  restitution.restitution = 0.5;
+  restitution.friction = 0.5;
+  restitution.tangential = TangentialModel::LammpsHistory;
+  EXPECT_EQ(selectForceKernel(ContactModel(restitution), {.walls = true}).name, "linear+lammps-history [walls]");
+  restitution.friction = 0.0;  // frictionless: no tangential law at all
+  EXPECT_EQ(selectForceKernel(ContactModel(restitution), {}).name,
+            "linear+frictionless [no walls, gravity or damping]");
+  restitution.normal = NormalModel::Hertz;
+  EXPECT_NE(configError(restitution).find("contact.tangential = \"lammps-history\" applies to the linear law only"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace polydem::contact

@@ -19,14 +19,27 @@ add_test(NAME lammps_gran_hooke_elastic
 add_test(NAME lammps_gran_hooke_predicted_differs
          COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/predicted
                  gran_hooke_poly.log 6 --expect-fewer --set run.dashpot_velocity=predicted)
-# Friction (gran/hooke/history, xmu = 0.5, Kt = 2/7 Kn, gamma_t = 0) against polydem's Cundall-Strack
-# spring with the same constants: the same physics up to the differences listed in docs/lammps.md (lever
-# arms r vs r - d/2, spring projection), 2.5 digits reached, 2 required.
-add_test(NAME lammps_gran_hooke_history_approximate
+# Friction: gran/hooke/history (xmu = 0.5, Kt = 2/7 Kn) is contact.tangential = "lammps-history":
+# 14.5 digits reached without and 14.4 with the tangential dashpot (gamma_t = 2500 1/s = 0.5 gamma_n), 12
+# required. polydem's own Cundall-Strack spring with the same constants agrees to 2.5 digits only (lever
+# arms r - d/2, spring rotation; docs/lammps.md): 2 required, fewer than 6 expected.
+add_test(NAME lammps_gran_hooke_history
          COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history
+                 gran_hooke_poly_history.log 12 --set contact.friction=0.5 --set contact.tangential=lammps-history)
+add_test(NAME lammps_gran_hooke_history_damped
+         COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history_damped
+                 gran_hooke_poly_history_damped.log 12 --set contact.friction=0.5
+                 --set contact.tangential=lammps-history --set contact.tangential_damping_ratio=0.5)
+add_test(NAME lammps_gran_hooke_history_cundall_strack_approximate
+         COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history_cs
                  gran_hooke_poly_history.log 2 --set contact.friction=0.5)
+add_test(NAME lammps_gran_hooke_history_cundall_strack_differs
+         COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history_cs_control
+                 gran_hooke_poly_history.log 6 --expect-fewer --set contact.friction=0.5)
 set_tests_properties(lammps_gran_hooke_damped lammps_gran_hooke_elastic lammps_gran_hooke_predicted_differs
-                     lammps_gran_hooke_history_approximate
+                     lammps_gran_hooke_history lammps_gran_hooke_history_damped
+                     lammps_gran_hooke_history_cundall_strack_approximate
+                     lammps_gran_hooke_history_cundall_strack_differs
                      PROPERTIES TIMEOUT 120 LABELS lammps)
 
 # Scene keys of the mass-velocity dashpot: every bad or missing value is a ConfigError (exit code 2)
@@ -50,5 +63,10 @@ polydem_lammps_scene_error(gamma_without_mass_velocity "contact.gamma_n applies 
 polydem_lammps_scene_error(unknown_damping "contact.damping = \"viscous\" is not valid; expected one of: restitution, mass-velocity"
                            ${_scene} --set contact.damping=viscous)
 polydem_lammps_scene_error(hertz_mass_velocity "applies to the linear law only" ${_scene} --set contact.law=hertz)
+polydem_lammps_scene_error(unknown_tangential "contact.tangential = \"lammps\" is not valid; expected one of: cundall-strack, lammps-history"
+                           ${_scene} --set contact.tangential=lammps)
+polydem_lammps_scene_error(hertz_lammps_tangential "contact.tangential = \"lammps-history\" applies to the linear law only"
+                           ${CMAKE_CURRENT_LIST_DIR}/mass_velocity_no_gamma.toml --set contact.damping=restitution
+                           --set contact.law=hertz --set contact.tangential=lammps-history --set contact.friction=0.5)
 polydem_lammps_scene_error(unknown_dashpot_velocity "run.dashpot_velocity = \"full\" is not valid; expected one of: predicted, half-step"
                            ${_scene} --set run.dashpot_velocity=full)
