@@ -36,6 +36,14 @@ add_test(NAME lammps_gran_hooke_history_cundall_strack_approximate
 add_test(NAME lammps_gran_hooke_history_cundall_strack_differs
          COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history_cs_control
                  gran_hooke_poly_history.log 6 --expect-fewer --set contact.friction=0.5)
+# The threaded force loop gives the serial results bit for bit, so the same digits with 2 threads.
+if(POLYDEM_WITH_OPENMP)
+  add_test(NAME lammps_gran_hooke_history_threads
+           COMMAND bash ${_lmp} $<TARGET_FILE:polydem> ${POLYDEM_SYSTEM_PYTHON} ${_lmp_work}/history_threads
+                   gran_hooke_poly_history.log 12 --set contact.friction=0.5 --set contact.tangential=lammps-history
+                   --set run.threads=2)
+  set_tests_properties(lammps_gran_hooke_history_threads PROPERTIES TIMEOUT 120 LABELS lammps)
+endif()
 set_tests_properties(lammps_gran_hooke_damped lammps_gran_hooke_elastic lammps_gran_hooke_predicted_differs
                      lammps_gran_hooke_history lammps_gran_hooke_history_damped
                      lammps_gran_hooke_history_cundall_strack_approximate
