@@ -44,6 +44,30 @@ void ContactParameters::validate() const {
         "contact.stiffness_scaling = \"radius\" applies to the linear law only: the Hertz law already scales "
         "with sqrt(R_eff)");
   }
+  requireFinite("contact.gamma_n", dampingRate);
+  if (dampingRate < 0.0) throw ConfigError(fmt::format("contact.gamma_n must be >= 0 (1/s), got {}", dampingRate));
+  if (damping == DampingModel::MassVelocity) {
+    if (normal != NormalModel::Linear) {
+      throw ConfigError(
+          "contact.damping = \"mass-velocity\" applies to the linear law only (LAMMPS gran/hooke); the Hertz law "
+          "uses contact.damping = \"restitution\"");
+    }
+    if (restitution != 1.0) {
+      throw ConfigError(fmt::format(
+          "contact.restitution = {} and contact.damping = \"mass-velocity\" exclude each other: the dashpot is "
+          "set by contact.gamma_n",
+          restitution));
+    }
+  } else if (dampingRate != 0.0) {
+    throw ConfigError(fmt::format(
+        "contact.gamma_n = {} applies to contact.damping = \"mass-velocity\" only (the restitution dashpot is set "
+        "by contact.restitution)",
+        dampingRate));
+  }
+  if (tangential == TangentialModel::LammpsHistory && normal != NormalModel::Linear) {
+    throw ConfigError(
+        "contact.tangential = \"lammps-history\" applies to the linear law only (LAMMPS gran/hooke/history)");
+  }
   if (normal == NormalModel::Hertz && restitution < 1e-3) {
     throw ConfigError(
         fmt::format("contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
@@ -60,10 +84,15 @@ std::string ContactParameters::describe() const {
   } else {
     text = fmt::format("hertz K = {:g} Pa", stiffness);
   }
-  text += fmt::format(", e = {:g}", restitution);
+  if (damping == DampingModel::MassVelocity) {
+    text += fmt::format(", mass-velocity gamma_n = {:g} 1/s", dampingRate);
+  } else {
+    text += fmt::format(", e = {:g}", restitution);
+  }
   if (friction > 0.0) {
     text += fmt::format(", mu = {:g}, k_t/k_n = {:g}, c_t/c_n = {:g}", friction, tangentialStiffnessRatio,
                         tangentialDampingRatio);
+    if (tangential == TangentialModel::LammpsHistory) text += " (lammps-history)";
   } else {
     text += ", frictionless";
   }
@@ -139,6 +168,10 @@ double ContactModel::contactDuration(double meff, double reff, double speed) con
   if (parameters_.normal == NormalModel::Linear) {
     const double k = LinearNormal::pairStiffness(linearParams(), reff);
     const double omega0 = std::sqrt(k / meff);
+    if (parameters_.damping == DampingModel::MassVelocity) {
+      const double zeta = parameters_.dampingRate / (2.0 * omega0);
+      return zeta < 1.0 ? kPi / (omega0 * std::sqrt(1.0 - zeta * zeta)) : kPi / omega0;
+    }
     return zeta_ < 1.0 ? kPi / (omega0 * std::sqrt(1.0 - zeta_ * zeta_)) : kPi / omega0;
   }
   const double kij = parameters_.stiffness * std::sqrt(reff);

@@ -17,6 +17,9 @@
 //            with K = 4/3 E* (Pa). The damping form is Tsuji et al., Powder Technol. 71, 239 (1992),
 //            eq. 10: e depends on alpha only (not on the impact speed), so alpha(e) is found once by
 //            integrating the dimensionless equation x'' = -x^(3/2) - alpha x^(1/4) x' (hertzAlpha()).
+// Damping `mass-velocity` (LAMMPS pair_style gran/hooke, after Silbert et al., Phys. Rev. E 64, 051302
+// (2001)): linear only, F_n = k d + gamma_n m_eff d' with one rate gamma_n (1/s) for every pair, so the
+// restitution depends on the pair: zeta = gamma_n / (2 omega_0), e = exp(-pi zeta / sqrt(1 - zeta^2)).
 // Forces are not clipped at zero: the contact ends when the overlap returns to zero, as in the
 // analytic solutions above (the dashpot pulls slightly at the very end). Clipping would change e.
 //
@@ -39,6 +42,11 @@ namespace polydem::contact {
 
 enum class NormalModel { Linear, Hertz };
 enum class StiffnessScaling { Constant, Radius };
+/// How the normal dashpot is set: from e per pair (exact restitution), or one mass-velocity rate gamma_n.
+enum class DampingModel { Restitution, MassVelocity };
+/// The tangential spring: polydem's Cundall-Strack, or LAMMPS gran/hooke/history's variant of it (lever
+/// arms r_i, r_j; spring projected after the increment; Coulomb cap mu |F_n|), for reproducing LAMMPS.
+enum class TangentialModel { CundallStrack, LammpsHistory };
 
 /// What a scene asks for. Keys in messages are the scene-file keys (`contact.restitution`, ...).
 struct ContactParameters {
@@ -47,13 +55,18 @@ struct ContactParameters {
   double stiffness = 0.0;
   StiffnessScaling scaling = StiffnessScaling::Constant;  ///< linear only
   double restitution = 1.0;                               ///< normal coefficient of restitution e in [0, 1]
-  double friction = 0.0;                        ///< Coulomb mu >= 0; 0 = frictionless (no rotation, no history)
-  double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (2/7: tangential and normal periods agree)
-  double tangentialDampingRatio = 0.0;          ///< c_t / c_n
-  double referenceVelocity = 0.0;               ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
+  double friction = 0.0;                             ///< Coulomb mu >= 0; 0 = frictionless (no rotation, no history)
+  double tangentialStiffnessRatio = 2.0 / 7.0;       ///< k_t / k_n (2/7: tangential and normal periods agree)
+  double tangentialDampingRatio = 0.0;               ///< c_t / c_n
+  double referenceVelocity = 0.0;                    ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
+  DampingModel damping = DampingModel::Restitution;  ///< contact.damping
+  double dampingRate = 0.0;                          ///< gamma_n (1/s), mass-velocity only: F_n += gamma_n m_eff d'
+  TangentialModel tangential = TangentialModel::CundallStrack;  ///< contact.tangential (with friction)
 
   bool usesFriction() const { return friction > 0.0; }
-  bool elastic() const { return restitution == 1.0 && friction == 0.0; }
+  /// The normal dashpot is on (e < 1, or gamma_n > 0).
+  bool normalDamped() const { return damping == DampingModel::Restitution ? restitution < 1.0 : dampingRate > 0.0; }
+  bool elastic() const { return !normalDamped() && friction == 0.0; }
   /// Throws ConfigError naming the key: stiffness <= 0, e outside [0, 1], mu < 0, ratios < 0, ...
   void validate() const;
   std::string describe() const;
@@ -112,6 +125,27 @@ struct LinearNormal {
   }
 };
 
+/// Linear spring with the mass-velocity dashpot of LAMMPS gran/hooke: F_n = k d + gamma_n m_eff d'.
+struct LinearMassVelocityNormal {
+  struct Params {
+    double stiffness;  ///< N/m, or N/m^2 when radiusScaled
+    double rate;       ///< gamma_n, 1/s
+    bool radiusScaled;
+  };
+  static constexpr bool kUsesRotation = false;
+  static constexpr int kHistorySize = 0;
+  static constexpr const char* kName = "linear(mass-velocity)";
+
+  static double pairStiffness(const Params& p, double reff) {
+    return p.radiusScaled ? p.stiffness * reff : p.stiffness;
+  }
+  static NormalForce force(const Params& p, double overlap, double rate, double meff, double reff) {
+    const double k = pairStiffness(p, reff);
+    const double c = p.rate * meff;
+    return {k * overlap + c * rate, k, c};
+  }
+};
+
 struct HertzNormal {
   struct Params {
     double stiffness;  ///< K = 4/3 E*, Pa
@@ -152,6 +186,20 @@ struct CundallStrack {
   static constexpr const char* kName = "cundall-strack";
 };
 
+/// LAMMPS gran/hooke/history's tangential spring (Silbert et al., Phys. Rev. E 64, 051302 (2001)): the
+/// spring xi grows by v_t dt, is then projected onto the tangent plane (which shortens it), F_t = -k_t xi -
+/// c_t v_t is capped at mu |F_n| (xi reset to the capped force); the contact-point velocity and the torques
+/// use the radii r_i, r_j as lever arms (polydem's Cundall-Strack: r_i - d/2, r_j - d/2). Same constants as
+/// CundallStrack: k_t = ratio k_n (LAMMPS Kt / Kn), c_t = ratio_c c_n (with mass-velocity damping
+/// c_n = gamma_n m_eff, so ratio_c = LAMMPS gamma_t / gamma_n).
+struct LammpsHistory {
+  using Params = CundallStrack::Params;
+  static constexpr bool kUsesRotation = true;
+  static constexpr int kHistorySize = 3;  ///< spring displacement xi (m), world frame
+  static constexpr bool kFullRadiusArms = true;
+  static constexpr const char* kName = "lammps-history";
+};
+
 template <class Normal, class Tangential = NoTangential>
 struct ContactLaw {
   using NormalLaw = Normal;
@@ -168,6 +216,10 @@ using LinearLaw = ContactLaw<LinearNormal>;
 using HertzLaw = ContactLaw<HertzNormal>;
 using LinearFrictionLaw = ContactLaw<LinearNormal, CundallStrack>;
 using HertzFrictionLaw = ContactLaw<HertzNormal, CundallStrack>;
+using LinearMassVelocityLaw = ContactLaw<LinearMassVelocityNormal>;
+using LinearMassVelocityFrictionLaw = ContactLaw<LinearMassVelocityNormal, CundallStrack>;
+using LinearLammpsLaw = ContactLaw<LinearNormal, LammpsHistory>;
+using LinearMassVelocityLammpsLaw = ContactLaw<LinearMassVelocityNormal, LammpsHistory>;
 
 /// Validated parameters plus the constants derived from them (zeta or alpha). Cheap to copy.
 class ContactModel {
@@ -183,6 +235,9 @@ class ContactModel {
   LinearNormal::Params linearParams() const {
     return {parameters_.stiffness, 2.0 * zeta_, parameters_.scaling == StiffnessScaling::Radius};
   }
+  LinearMassVelocityNormal::Params massVelocityParams() const {
+    return {parameters_.stiffness, parameters_.dampingRate, parameters_.scaling == StiffnessScaling::Radius};
+  }
   HertzNormal::Params hertzParams() const { return {parameters_.stiffness, hertz_.alpha}; }
   CundallStrack::Params tangentialParams() const {
     return {parameters_.friction, parameters_.tangentialStiffnessRatio, parameters_.tangentialDampingRatio};
@@ -190,7 +245,8 @@ class ContactModel {
 
   /// Duration (s) of a head-on contact of a pair with reduced mass m_eff (kg) and effective radius
   /// R_eff (m) at impact speed v (m/s; Hertz only, linear ignores it). For e = 0 (linear) the undamped
-  /// half period pi sqrt(m_eff / k), since the critically damped contact never ends.
+  /// half period pi sqrt(m_eff / k), since the critically damped contact never ends; the same for a
+  /// mass-velocity pair at or above critical damping (gamma_n >= 2 omega_0).
   double contactDuration(double meff, double reff, double speed) const;
   /// Elastic energy (J) of a normal overlap (m).
   double normalEnergy(double overlap, double reff) const;

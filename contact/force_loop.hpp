@@ -5,13 +5,16 @@
 // Runtime choices become compile-time ones in exactly one place, selectForceKernel(): a frictionless,
 // wall-free, gravity-free scene runs computeForces<LinearLaw, {}> which has no rotation arrays, no
 // history, no wall loop and no branches for any of them. Every shipped combination is instantiated
-// once in force_loop_instances.cpp (4 laws x 8 flag sets).
+// once in force_loop_instances.cpp (every law x 8 flag sets).
 //
 // Velocities: velocity Verlet evaluates forces at positions x(t + dt) while the velocities are at
 // t + dt/2. Dashpots and viscous damping use the predicted v(t + dt) = v(t + dt/2) + dt/2 a(t)
 // (`velocity`), which keeps the dissipated energy second-order accurate; with v(t + dt/2) the head-on
 // restitution is off by about zeta omega_0 dt (5% at e = 0.1, f = 50). The tangential spring grows by
-// v_t(t + dt/2) dt (`velocityHalf`), the midpoint rule for the slip displacement.
+// v_t(t + dt/2) dt (`velocityHalf`), the midpoint rule for the slip displacement. With
+// DemSettings::dashpotVelocity = HalfStep (LAMMPS's choice: its velocity Verlet computes forces after the
+// drift with v(t + dt/2)) the integrator passes velocityHalf as `velocity` too and skips the prediction:
+// the kernel is the same code, reading the other array, so the option costs nothing either way.
 //
 // Threads (ForceContext::threads > 1, OpenMP builds): the serial loop adds each pair's force to row i
 // and subtracts it from particle j at once, a scatter that threads cannot share without races, and

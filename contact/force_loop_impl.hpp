@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
 
 #include "contact/force_loop.hpp"
 #include "core/errors.hpp"
@@ -59,6 +60,49 @@ inline Vec3 tangentialForce(const CundallStrack::Params& p, const NormalForce& n
   xi[1] = s[1];
   xi[2] = s[2];
   return ft;
+}
+
+/// LAMMPS gran/hooke/history's tangential force for one contact (see LammpsHistory): the spring grows by
+/// v_t(t + dt/2) dt first and is projected onto the tangent plane after; the Coulomb cap is mu |F_n|.
+inline Vec3 tangentialForce(const LammpsHistory::Params& p, const NormalForce& nf, const Vec3& n, const Vec3& vt,
+                            const Vec3& vtHalf, double dt, double* xi, std::true_type /*lammps*/) {
+  Vec3 s(xi[0], xi[1], xi[2]);
+  s += dt * vtHalf;
+  const bool stretched = s.squaredNorm() != 0.0;  // before the projection, as LAMMPS tests it
+  s -= s.dot(n) * n;
+  const double kt = p.stiffnessRatio * nf.stiffness;
+  const double ct = p.dampingRatio * nf.damping;
+  Vec3 ft = -(kt * s + ct * vt);
+  const double limit = p.friction * std::abs(nf.force);
+  const double ftNorm = ft.norm();
+  if (ftNorm > limit) {
+    if (stretched) {
+      const double scale = limit / ftNorm;
+      s = scale * (s + ct * vt / kt) - ct * vt / kt;
+      ft *= scale;
+    } else {
+      ft = Vec3::Zero();
+    }
+  }
+  xi[0] = s[0];
+  xi[1] = s[1];
+  xi[2] = s[2];
+  return ft;
+}
+
+/// LammpsHistory's variant (full-radius lever arms, its own spring update), else polydem's Cundall-Strack.
+template <class Tangential>
+constexpr bool kLammpsTangential = std::is_same_v<Tangential, LammpsHistory>;
+
+/// Tangential force of the law's tangential part (Cundall-Strack or LAMMPS's variant).
+template <class Tangential>
+inline Vec3 lawTangentialForce(const typename Tangential::Params& p, const NormalForce& nf, const Vec3& n,
+                               const Vec3& vt, const Vec3& vtHalf, double dt, double* xi) {
+  if constexpr (kLammpsTangential<Tangential>) {
+    return tangentialForce(p, nf, n, vt, vtHalf, dt, xi, std::true_type{});
+  } else {
+    return tangentialForce(p, nf, n, vt, vtHalf, dt, xi);
+  }
 }
 
 /// What both pair loops read, copied out of the context once, and the work per particle and per pair.
@@ -165,15 +209,16 @@ struct PairKernel {
     const NormalForce nf = Normal::force(params.normal, overlap, rate, meff, reff);
     fc = nf.force * nrm;
     if constexpr (kRotation) {
-      const double ai = a.r - 0.5 * overlap, aj = rj - 0.5 * overlap;
+      constexpr bool kFull = kLammpsTangential<typename Law::TangentialLaw>;  // lever arms r (LAMMPS), r - d/2
+      const double ai = kFull ? a.r : a.r - 0.5 * overlap, aj = kFull ? rj : rj - 0.5 * overlap;
       const Vec3 wi = load(w, i), wj = load(w, j);
       Vec3 vc = vrel - (ai * wi + aj * wj).cross(nrm);
       const Vec3 vt = vc - vc.dot(nrm) * nrm;
       const Vec3 vrelHalf = load(vh, i) - load(vh, j);
       Vec3 vch = vrelHalf - (ai * load(wh, i) + aj * load(wh, j)).cross(nrm);
       const Vec3 vtHalf = vch - vch.dot(nrm) * nrm;
-      const Vec3 ft =
-          tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt, history + kHistory * static_cast<std::size_t>(c));
+      const Vec3 ft = lawTangentialForce<typename Law::TangentialLaw>(params.tangential, nf, nrm, vt, vtHalf, dt,
+                                                                      history + kHistory * static_cast<std::size_t>(c));
       fc += ft;
       const Vec3 arm = nrm.cross(ft);  // torque_i = -a_i n x F_t, torque_j = -a_j n x F_t
       tqi = ai * arm;
@@ -387,12 +432,14 @@ void computeForces(const typename Law::Params& params, const ForceContext& ctx) 
       const NormalForce nf = Normal::force(params.normal, overlap, -vi.dot(nrm), meff, ri);
       Vec3 fc = nf.force * nrm;
       if constexpr (kRotation) {
-        const double a = ri - overlap;  // lever arm to the wall plane
+        // Lever arm to the wall plane (LAMMPS variant: the radius).
+        const double a = detail::kLammpsTangential<typename Law::TangentialLaw> ? ri : ri - overlap;
         Vec3 vc = vi - a * detail::load(w, i).cross(nrm);
         const Vec3 vt = vc - vc.dot(nrm) * nrm;
         Vec3 vch = detail::load(vh, i) - a * detail::load(wh, i).cross(nrm);
         const Vec3 vtHalf = vch - vch.dot(nrm) * nrm;
-        const Vec3 ft = detail::tangentialForce(params.tangential, nf, nrm, vt, vtHalf, dt, wallHistory + kHistory * c);
+        const Vec3 ft = detail::lawTangentialForce<typename Law::TangentialLaw>(params.tangential, nf, nrm, vt, vtHalf,
+                                                                                dt, wallHistory + kHistory * c);
         fc += ft;
         detail::subtract(torque, i, a * nrm.cross(ft));
       }

@@ -8,7 +8,7 @@
 
 namespace polydem::contact {
 
-// 4 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
+// 8 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
 #define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
   template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
   template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
@@ -23,6 +23,10 @@ POLYDEM_FORCE_KERNEL_INSTANCES(LinearLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(HertzLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(LinearFrictionLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(HertzFrictionLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityFrictionLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearLammpsLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLammpsLaw)
 #undef POLYDEM_FORCE_KERNEL_INSTANCES
 
 namespace {
@@ -32,10 +36,15 @@ typename Law::Params paramsFor(const ContactModel& model) {
   typename Law::Params p{};
   if constexpr (std::is_same_v<typename Law::NormalLaw, LinearNormal>) {
     p.normal = model.linearParams();
+  } else if constexpr (std::is_same_v<typename Law::NormalLaw, LinearMassVelocityNormal>) {
+    p.normal = model.massVelocityParams();
   } else {
     p.normal = model.hertzParams();
   }
-  if constexpr (std::is_same_v<typename Law::TangentialLaw, CundallStrack>) p.tangential = model.tangentialParams();
+  if constexpr (std::is_same_v<typename Law::TangentialLaw, CundallStrack> ||
+                std::is_same_v<typename Law::TangentialLaw, LammpsHistory>) {
+    p.tangential = model.tangentialParams();
+  }
   return p;
 }
 
@@ -84,6 +93,12 @@ ForceKernel selectForceKernel(const ContactModel& model, KernelFlags flags, bool
   const bool linear = model.parameters().normal == NormalModel::Linear;
   const bool friction = general || model.parameters().usesFriction();
   if (general) flags = {true, true, true};
+  const bool lammps = model.parameters().tangential == TangentialModel::LammpsHistory;
+  if (model.parameters().damping == DampingModel::MassVelocity) {
+    if (friction && lammps) return make<LinearMassVelocityLammpsLaw>(flags);
+    return friction ? make<LinearMassVelocityFrictionLaw>(flags) : make<LinearMassVelocityLaw>(flags);
+  }
+  if (linear && friction && lammps) return make<LinearLammpsLaw>(flags);
   if (linear) return friction ? make<LinearFrictionLaw>(flags) : make<LinearLaw>(flags);
   return friction ? make<HertzFrictionLaw>(flags) : make<HertzLaw>(flags);
 }

@@ -248,7 +248,8 @@ void DemSimulation::selectKernel() {
   bool gravityOnPeriodic = false;
   for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
   conservative_ = settings_.dissipationFree() && !gravityOnPeriodic;
-  predict_ = p.restitution < 1.0 || flags_.viscous || kernel_.rotation;
+  predict_ = settings_.dashpotVelocity == DashpotVelocity::Predicted &&
+             (p.normalDamped() || flags_.viscous || kernel_.rotation);
 }
 
 void DemSimulation::rejectCoincidentCentres() const {
@@ -387,7 +388,7 @@ contact::ForceContext DemSimulation::context() const {
   c.force = self.particles_.force().data();
   if (kernel_.rotation) {
     c.angularVelocityHalf = particles_.angularVelocity().data();
-    c.angularVelocity = angularVelocityPredicted_.data();
+    c.angularVelocity = predict_ ? angularVelocityPredicted_.data() : particles_.angularVelocity().data();
     c.inverseInertia = particles_.inverseInertia().data();
     c.torque = self.particles_.torque().data();
   }
@@ -490,7 +491,11 @@ double DemSimulation::openingKickAndDrift() {
   if (kernel_.rotation) {
     const KickArrays rotation{particles_.angularVelocity().data(), particles_.torque().data(),
                               particles_.inverseInertia().data(), angularVelocityPredicted_.data()};
-    halfKick<false, true>(n, threads, dt_, rotation);
+    if (predict_) {
+      halfKick<false, true>(n, threads, dt_, rotation);
+    } else {
+      halfKick<false, false>(n, threads, dt_, rotation);
+    }
   }
   return maxSq;
 }

@@ -5,10 +5,10 @@
 //   v += dt/2 F/m;  x += dt v;  [rebuild the Verlet list if max |x - x_build| > skin/2];
 //   F = F(x, v_pred);  v += dt/2 F/m
 // with v_pred = v(t + dt/2) + dt/2 F(t)/m the predicted full-step velocity for dashpots (see
-// contact/force_loop.hpp). Rotation (omega, torque, solid-sphere inertia) is integrated the same way,
-// only when the kernel has rotation (friction, or the general kernel: DemSettings::needsRotation). Periodic coordinates
-// are wrapped into [0, L) at each rebuild, so between rebuilds they stray at most skin/2 outside, which the minimum
-// image in the kernel absorbs.
+// contact/force_loop.hpp), or v(t + dt/2) itself with DashpotVelocity::HalfStep (LAMMPS). Rotation (omega, torque,
+// solid-sphere inertia) is integrated the same way, only when the kernel has rotation (friction, or the general kernel:
+// DemSettings::needsRotation). Periodic coordinates are wrapped into [0, L) at each rebuild, so between rebuilds they
+// stray at most skin/2 outside, which the minimum image in the kernel absorbs.
 //
 // A stability check runs every `checkInterval` steps (and on demand): non-finite state, a particle
 // outside a walled box, an overlap above a fraction of the smaller radius, or energy growth in a
@@ -39,14 +39,21 @@ struct StabilityLimits {
   void validate() const;
 };
 
+/// Which velocity the dashpots (and viscous damping) see when forces are computed at x(t + dt).
+enum class DashpotVelocity {
+  Predicted,  ///< v(t + dt/2) + dt/2 F(t)/m: second-order dissipation (the default)
+  HalfStep,   ///< v(t + dt/2), as LAMMPS's velocity Verlet (fix nve/sphere) does: for reproducing LAMMPS
+};
+
 struct DemSettings {
   contact::ContactParameters contact;
   double stepsPerContact = 50.0;  ///< f: dt = t_c,min / f (>= 5)
   double timeStep = 0.0;          ///< s; > 0 overrides the automatic dt (then f is reported as t_c,min / dt)
   double skin = -1.0;             ///< Verlet skin (m); < 0 = 0.2 r_min
   std::string broadPhase = "linked-cell";
-  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();  ///< m/s^2
-  double viscousDamping = 0.0;                        ///< global damping rate gamma (1/s): F -= gamma m v
+  Eigen::Vector3d gravity = Eigen::Vector3d::Zero();             ///< m/s^2
+  double viscousDamping = 0.0;                                   ///< global damping rate gamma (1/s): F -= gamma m v
+  DashpotVelocity dashpotVelocity = DashpotVelocity::Predicted;  ///< run.dashpot_velocity
   StabilityLimits stability;
   bool spatialSort = true;     ///< reorder particles along a Morton curve once, for cache locality
   bool generalKernel = false;  ///< force the most general kernel (comparisons); needs rotation arrays
@@ -202,7 +209,7 @@ class DemSimulation {
   Eigen::Matrix3Xd velocityPredicted_, angularVelocityPredicted_;
   std::vector<double> crossScratch_;         ///< threads > 1: forces (torques) of the cross pairs
   std::vector<std::uint8_t> crossTouching_;  ///< threads > 1: contact flag per cross pair
-  bool predict_ = false;                     ///< dashpots or viscous damping present: keep velocityPredicted_
+  bool predict_ = false;  ///< dashpots or viscous damping present and Predicted: keep velocityPredicted_
   bool conservative_ = false;
   double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)
   std::int64_t step_ = 0;

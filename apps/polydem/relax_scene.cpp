@@ -289,8 +289,32 @@ void readContact(Section contact, RelaxScene& s) {
   c.scaling = contact.choice("stiffness_scaling", "constant", {"constant", "radius"}) == "radius"
                   ? contact::StiffnessScaling::Radius
                   : contact::StiffnessScaling::Constant;
+  c.damping = contact.choice("damping", "restitution", {"restitution", "mass-velocity"}) == "mass-velocity"
+                  ? contact::DampingModel::MassVelocity
+                  : contact::DampingModel::Restitution;
+  if (c.damping == contact::DampingModel::MassVelocity) {
+    if (!contact.has("gamma_n")) {
+      throw ConfigError(
+          "missing required key contact.gamma_n (1/s): contact.damping = \"mass-velocity\" sets the normal "
+          "dashpot F = -gamma_n m_eff v_n (LAMMPS gran/hooke); e.g. contact.gamma_n = 5000.0");
+    }
+    if (contact.has("restitution")) {
+      throw ConfigError(
+          "contact.restitution and contact.damping = \"mass-velocity\" exclude each other: the dashpot is set by "
+          "contact.gamma_n (remove contact.restitution)");
+    }
+  } else if (contact.has("gamma_n")) {
+    throw ConfigError(
+        "contact.gamma_n applies to contact.damping = \"mass-velocity\" only; with the default damping = "
+        "\"restitution\" the dashpot is set by contact.restitution");
+  }
+  c.dampingRate = contact.number("gamma_n", c.dampingRate);
   c.restitution = contact.number("restitution", c.restitution);
   c.friction = contact.number("friction", c.friction);
+  c.tangential =
+      contact.choice("tangential", "cundall-strack", {"cundall-strack", "lammps-history"}) == "lammps-history"
+          ? contact::TangentialModel::LammpsHistory
+          : contact::TangentialModel::CundallStrack;
   c.tangentialStiffnessRatio = contact.number("tangential_stiffness_ratio", c.tangentialStiffnessRatio);
   c.tangentialDampingRatio = contact.number("tangential_damping_ratio", c.tangentialDampingRatio);
   c.referenceVelocity = contact.number("reference_velocity", c.referenceVelocity);
@@ -356,6 +380,9 @@ void readRun(Section run, RelaxScene& s) {
   dem.broadPhase = run.string("broadphase", kDefaultBroadPhase);
   dem.gravity = run.vector3("gravity", dem.gravity);
   dem.viscousDamping = run.number("viscous_damping", dem.viscousDamping);
+  dem.dashpotVelocity = run.choice("dashpot_velocity", "predicted", {"predicted", "half-step"}) == "half-step"
+                            ? integrators::DashpotVelocity::HalfStep
+                            : integrators::DashpotVelocity::Predicted;
   dem.stability.checkInterval = run.integer("check_interval", dem.stability.checkInterval);
   dem.stability.maxOverlapFraction = run.number("max_overlap_fraction", dem.stability.maxOverlapFraction);
   dem.stability.energyTolerance = run.number("energy_tolerance", dem.stability.energyTolerance);
@@ -474,8 +501,13 @@ std::string defaultSceneToml() {
   t += "stiffness = 1000.0  # required: N/m (linear), N/m^2 (radius-scaled), Pa (hertz: 4/3 E*)\n";
   t += fmt::format("stiffness_scaling = \"{}\"  # constant or radius\n",
                    c.scaling == contact::StiffnessScaling::Radius ? "radius" : "constant");
+  t += fmt::format("damping = \"{}\"  # restitution (per-pair dashpot from e) or mass-velocity (LAMMPS gran/hooke)\n",
+                   c.damping == contact::DampingModel::MassVelocity ? "mass-velocity" : "restitution");
   t += fmt::format("restitution = {}\n", num(c.restitution));
+  t += "# gamma_n = 5000.0  # required with damping = \"mass-velocity\": 1/s, F_n += gamma_n m_eff d'\n";
   t += fmt::format("friction = {}\n", num(c.friction));
+  t += fmt::format("tangential = \"{}\"  # cundall-strack, or lammps-history (LAMMPS gran/hooke/history)\n",
+                   c.tangential == contact::TangentialModel::LammpsHistory ? "lammps-history" : "cundall-strack");
   t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
   t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
@@ -501,6 +533,8 @@ std::string defaultSceneToml() {
   t += fmt::format("broadphase = \"{}\"\n", kDefaultBroadPhase);
   t += fmt::format("gravity = [{}, {}, {}]  # m/s^2\n", num(dem.gravity[0]), num(dem.gravity[1]), num(dem.gravity[2]));
   t += fmt::format("viscous_damping = {}  # 1/s\n", num(dem.viscousDamping));
+  t += fmt::format("dashpot_velocity = \"{}\"  # predicted v(t+dt) or half-step v(t+dt/2) (LAMMPS)\n",
+                   dem.dashpotVelocity == integrators::DashpotVelocity::HalfStep ? "half-step" : "predicted");
   t += fmt::format("check_interval = {}  # 0 = only at the end\n", dem.stability.checkInterval);
   t += fmt::format("max_overlap_fraction = {}\n", num(dem.stability.maxOverlapFraction));
   t += fmt::format("energy_tolerance = {}\n", num(dem.stability.energyTolerance));

@@ -6,13 +6,13 @@
 //   [particles]  file = "x.txt" | count, distribution, rmin, omega, alpha, sigma, median,
 //                large_fraction, fraction_kind, sampling, packing_fraction, seed; density
 //   [box]        boundaries = "periodic" | "walls" | "periodic,periodic,wall"; aspect = [1, 1, 1]
-//   [contact]    law, stiffness, stiffness_scaling, restitution, friction, tangential_stiffness_ratio,
-//                tangential_damping_ratio, reference_velocity
+//   [contact]    law, stiffness, stiffness_scaling, damping, restitution, gamma_n, friction,
+//                tangential_stiffness_ratio, tangential_damping_ratio, reference_velocity
 //   [velocities] initial = "impact" | "file" | "zero"; overlap = 0.01; seed
 //   [compression] packing_fraction, growth_rate, damping, max_overlap, max_steps   (optional)
 //   [run]        steps, dt_factor, dt, allow_unstable_dt, skin, broadphase, gravity, viscous_damping,
-//                check_interval, max_overlap_fraction, energy_tolerance, kernel, spatial_sort, threads,
-//                progress_interval
+//                dashpot_velocity, check_interval, max_overlap_fraction, energy_tolerance, kernel, spatial_sort,
+//                threads, progress_interval
 //   [output]     snapshot, snapshot_interval, timeseries, timeseries_interval, final, checkpoint,
 //                checkpoint_interval, checkpoint_seconds
 //
