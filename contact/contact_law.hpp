@@ -31,6 +31,7 @@
 // Lever arms are r_i - d/2 and r_j - d/2 (they sum to the centre distance, so angular momentum is
 // conserved exactly); for walls r_i - d.
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "core/types.hpp"
@@ -39,6 +40,8 @@ namespace polydem::contact {
 
 enum class NormalModel { Linear, Hertz };
 enum class StiffnessScaling { Constant, Radius };
+/// Tangential law when friction > 0: Cundall-Strack spring (default) or Hertz-Mindlin (contact/hertz_mindlin.hpp).
+enum class TangentialModel { CundallStrack, HertzMindlin };
 
 /// What a scene asks for. Keys in messages are the scene-file keys (`contact.restitution`, ...).
 struct ContactParameters {
@@ -51,11 +54,18 @@ struct ContactParameters {
   double tangentialStiffnessRatio = 2.0 / 7.0;  ///< k_t / k_n (2/7: tangential and normal periods agree)
   double tangentialDampingRatio = 0.0;          ///< c_t / c_n
   double referenceVelocity = 0.0;               ///< Hertz: impact speed (m/s) for the contact duration; 0 = unset
+  // Hertz-Mindlin tangential law (contact.tangential = "hertz-mindlin"; Hertz normal law only). Exactly
+  // one of shearModulus and poissonRatio gives G*; tangential_stiffness_ratio does not apply.
+  TangentialModel tangential = TangentialModel::CundallStrack;
+  double shearModulus = 0.0;           ///< effective G* (Pa) of the pair; 0 = from poissonRatio
+  std::optional<double> poissonRatio;  ///< nu of one material (or a sphere on a rigid plane): G* = E* (1-nu)/(2(2-nu))
 
   bool usesFriction() const { return friction > 0.0; }
   bool elastic() const { return restitution == 1.0 && friction == 0.0; }
   /// Throws ConfigError naming the key: stiffness <= 0, e outside [0, 1], mu < 0, ratios < 0, ...
   void validate() const;
+  /// The tangential-law part of validate(): contact.tangential, contact.shear_modulus, contact.poisson_ratio.
+  void validateTangential() const;
   std::string describe() const;
 };
 

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "contact/force_loop.hpp"
+#include "contact/hertz_mindlin.hpp"  // its tangentialForce overload, found by the calls below
 #include "core/errors.hpp"
 #include "polydem/config.hpp"
 

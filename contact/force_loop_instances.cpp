@@ -8,7 +8,7 @@
 
 namespace polydem::contact {
 
-// 4 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
+// 5 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
 #define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
   template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
   template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
@@ -23,6 +23,7 @@ POLYDEM_FORCE_KERNEL_INSTANCES(LinearLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(HertzLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(LinearFrictionLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(HertzFrictionLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(HertzMindlinLaw)
 #undef POLYDEM_FORCE_KERNEL_INSTANCES
 
 namespace {
@@ -36,6 +37,7 @@ typename Law::Params paramsFor(const ContactModel& model) {
     p.normal = model.hertzParams();
   }
   if constexpr (std::is_same_v<typename Law::TangentialLaw, CundallStrack>) p.tangential = model.tangentialParams();
+  if constexpr (std::is_same_v<typename Law::TangentialLaw, HertzMindlin>) p.tangential = hertzMindlinParams(model);
   return p;
 }
 
@@ -84,6 +86,7 @@ ForceKernel selectForceKernel(const ContactModel& model, KernelFlags flags, bool
   const bool linear = model.parameters().normal == NormalModel::Linear;
   const bool friction = general || model.parameters().usesFriction();
   if (general) flags = {true, true, true};
+  if (friction && model.parameters().tangential == TangentialModel::HertzMindlin) return make<HertzMindlinLaw>(flags);
   if (linear) return friction ? make<LinearFrictionLaw>(flags) : make<LinearLaw>(flags);
   return friction ? make<HertzFrictionLaw>(flags) : make<HertzLaw>(flags);
 }
@@ -93,9 +96,17 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
   const bool hasHistory = ctx.pairHistory != nullptr && ctx.pairHistory->width() > 0;
   const CundallStrack::Params tp = model.tangentialParams();
   const bool linear = model.parameters().normal == NormalModel::Linear;
+  // Hertz-Mindlin histories hold the spring force F (N), whose energy is |F|^2 / (2 k_t); Cundall-Strack
+  // ones the displacement xi (m), whose energy is k_t |xi|^2 / 2.
+  const bool mindlin = model.parameters().tangential == TangentialModel::HertzMindlin;
+  const double mindlinRatio = mindlin ? mindlinStiffnessRatio(model.parameters()) : 0.0;
   auto tangentialStiffness = [&](double overlap, double reff) {
     if (linear) return tp.stiffnessRatio * LinearNormal::pairStiffness(model.linearParams(), reff);
     return tp.stiffnessRatio * model.parameters().stiffness * std::sqrt(reff) * std::sqrt(overlap);
+  };
+  auto tangentialEnergy = [&](double overlap, double reff, double sq) {
+    if (mindlin) return 0.5 * sq / (mindlinRatio * model.parameters().stiffness * std::sqrt(reff * overlap));
+    return 0.5 * tangentialStiffness(overlap, reff) * sq;
   };
   auto consider = [&](double ratio, Index i, Index j) {
     if (ratio > s.maxOverlapRatio) {
@@ -127,7 +138,7 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
       if (hasHistory) {
         const double* xi3 = ctx.pairHistory->values(static_cast<std::size_t>(c));
         const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
-        s.elasticEnergy += 0.5 * tangentialStiffness(overlap, reff) * sq;
+        s.elasticEnergy += tangentialEnergy(overlap, reff, sq);
       }
       consider(overlap / std::min(ri, rj), i, j);
     }
@@ -145,7 +156,7 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
     if (wallHistory) {
       const double* xi3 = ctx.wallHistory->values(c);
       const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
-      s.elasticEnergy += 0.5 * tangentialStiffness(overlap, ctx.radius[i]) * sq;
+      s.elasticEnergy += tangentialEnergy(overlap, ctx.radius[i], sq);
     }
     consider(overlap / ctx.radius[i], i, -1 - face);
   }

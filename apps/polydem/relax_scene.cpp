@@ -294,6 +294,20 @@ void readContact(Section contact, RelaxScene& s) {
   c.tangentialStiffnessRatio = contact.number("tangential_stiffness_ratio", c.tangentialStiffnessRatio);
   c.tangentialDampingRatio = contact.number("tangential_damping_ratio", c.tangentialDampingRatio);
   c.referenceVelocity = contact.number("reference_velocity", c.referenceVelocity);
+  // Tangential law: Cundall-Strack (default) or Hertz-Mindlin with the pair's G* (or one Poisson ratio).
+  if (contact.choice("tangential", "cundall-strack", {"cundall-strack", "hertz-mindlin"}) == "hertz-mindlin") {
+    c.tangential = contact::TangentialModel::HertzMindlin;
+    if (contact.has("tangential_stiffness_ratio")) {
+      throw ConfigError(
+          "contact.tangential_stiffness_ratio applies to contact.tangential = \"cundall-strack\" only (Hertz-Mindlin "
+          "takes k_t = 8 G* sqrt(R* d) from contact.shear_modulus or contact.poisson_ratio)");
+    }
+  }
+  c.shearModulus = contact.number("shear_modulus", c.shearModulus);
+  if (contact.has("shear_modulus") && !(c.shearModulus > 0.0)) {
+    throw ConfigError(fmt::format("contact.shear_modulus must be > 0, got {}", c.shearModulus));
+  }
+  if (contact.has("poisson_ratio")) c.poissonRatio = contact.number("poisson_ratio", 0.0);
   contact.finish();
   c.validate();
 }
@@ -478,6 +492,9 @@ std::string defaultSceneToml() {
   t += fmt::format("friction = {}\n", num(c.friction));
   t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
   t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
+  t += "tangential = \"cundall-strack\"  # cundall-strack or hertz-mindlin (hertz law only)\n";
+  t += "# shear_modulus = 1e10  # hertz-mindlin, example value: the pair's effective G* (Pa), 1/G* = (2-nu1)/G1 + (2-nu2)/G2\n";
+  t += "# poisson_ratio = 0.3  # hertz-mindlin, instead: one material, G* = E* (1-nu) / (2 (2-nu))\n";
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
                    num(c.referenceVelocity));
   t += "[velocities]\n";
