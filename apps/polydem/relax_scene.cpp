@@ -493,7 +493,7 @@ std::string defaultSceneToml() {
   t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
   t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
   t += "tangential = \"cundall-strack\"  # cundall-strack or hertz-mindlin (hertz law only)\n";
-  t += "# shear_modulus = 1e10  # hertz-mindlin, example value: the pair's effective G* (Pa), 1/G* = (2-nu1)/G1 + (2-nu2)/G2\n";
+  t += "# shear_modulus = 1e10  # hertz-mindlin, example value: the pair's G* (Pa), 1/G* = (2-nu1)/G1 + (2-nu2)/G2\n";
   t += "# poisson_ratio = 0.3  # hertz-mindlin, instead: one material, G* = E* (1-nu) / (2 (2-nu))\n";
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
                    num(c.referenceVelocity));
