@@ -68,11 +68,42 @@ void ContactParameters::validate() const {
     throw ConfigError(
         "contact.tangential = \"lammps-history\" applies to the linear law only (LAMMPS gran/hooke/history)");
   }
+  validateTangential();
   if (normal == NormalModel::Hertz && restitution < 1e-3) {
     throw ConfigError(
         fmt::format("contact.restitution = {} is below 0.001, which the Hertz (Tsuji) dashpot cannot reach; use the "
                     "linear law for nearly plastic contacts",
                     restitution));
+  }
+}
+
+void ContactParameters::validateTangential() const {
+  requireFinite("contact.shear_modulus", shearModulus);
+  if (shearModulus < 0.0) throw ConfigError(fmt::format("contact.shear_modulus must be > 0, got {}", shearModulus));
+  if (poissonRatio) {
+    requireFinite("contact.poisson_ratio", *poissonRatio);
+    // Above 0.5 is not an isotropic solid; below 0 (auxetic) the Hertz-Mindlin ratio is untested here.
+    if (*poissonRatio < 0.0 || *poissonRatio > 0.5) {
+      throw ConfigError(fmt::format("contact.poisson_ratio must be in [0, 0.5], got {}", *poissonRatio));
+    }
+  }
+  if (tangential != TangentialModel::HertzMindlin) {
+    if (shearModulus > 0.0 || poissonRatio) {
+      throw ConfigError(fmt::format("contact.{} applies to contact.tangential = \"hertz-mindlin\" only",
+                                    shearModulus > 0.0 ? "shear_modulus" : "poisson_ratio"));
+    }
+    return;
+  }
+  if (normal != NormalModel::Hertz) {
+    throw ConfigError(
+        "contact.tangential = \"hertz-mindlin\" needs contact.law = \"hertz\" (the Mindlin stiffness 8 G* sqrt(R* d) "
+        "belongs to a Hertz contact)");
+  }
+  if ((shearModulus > 0.0) == poissonRatio.has_value()) {
+    throw ConfigError(
+        "contact.tangential = \"hertz-mindlin\" needs exactly one of contact.shear_modulus (the pair's effective G*, "
+        "Pa) "
+        "and contact.poisson_ratio (one material: G* = E* (1 - nu) / (2 (2 - nu)))");
   }
 }
 
@@ -89,7 +120,12 @@ std::string ContactParameters::describe() const {
   } else {
     text += fmt::format(", e = {:g}", restitution);
   }
-  if (friction > 0.0) {
+  if (friction > 0.0 && tangential == TangentialModel::HertzMindlin) {
+    const double gStar =
+        shearModulus > 0.0 ? shearModulus : 0.75 * stiffness * (1.0 - *poissonRatio) / (2.0 * (2.0 - *poissonRatio));
+    text +=
+        fmt::format(", mu = {:g}, hertz-mindlin G* = {:g} Pa, c_t/c_n = {:g}", friction, gStar, tangentialDampingRatio);
+  } else if (friction > 0.0) {
     text += fmt::format(", mu = {:g}, k_t/k_n = {:g}, c_t/c_n = {:g}", friction, tangentialStiffnessRatio,
                         tangentialDampingRatio);
     if (tangential == TangentialModel::LammpsHistory) text += " (lammps-history)";

@@ -34,6 +34,7 @@
 // Lever arms are r_i - d/2 and r_j - d/2 (they sum to the centre distance, so angular momentum is
 // conserved exactly); for walls r_i - d.
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "core/types.hpp"
@@ -44,9 +45,10 @@ enum class NormalModel { Linear, Hertz };
 enum class StiffnessScaling { Constant, Radius };
 /// How the normal dashpot is set: from e per pair (exact restitution), or one mass-velocity rate gamma_n.
 enum class DampingModel { Restitution, MassVelocity };
-/// The tangential spring: polydem's Cundall-Strack, or LAMMPS gran/hooke/history's variant of it (lever
-/// arms r_i, r_j; spring projected after the increment; Coulomb cap mu |F_n|), for reproducing LAMMPS.
-enum class TangentialModel { CundallStrack, LammpsHistory };
+/// The tangential law when friction > 0: polydem's Cundall-Strack spring (default); LAMMPS
+/// gran/hooke/history's variant of it (lever arms r_i, r_j; spring projected after the increment; Coulomb
+/// cap mu |F_n|), for reproducing LAMMPS; or Hertz-Mindlin (contact/hertz_mindlin.hpp).
+enum class TangentialModel { CundallStrack, LammpsHistory, HertzMindlin };
 
 /// What a scene asks for. Keys in messages are the scene-file keys (`contact.restitution`, ...).
 struct ContactParameters {
@@ -62,6 +64,10 @@ struct ContactParameters {
   DampingModel damping = DampingModel::Restitution;  ///< contact.damping
   double dampingRate = 0.0;                          ///< gamma_n (1/s), mass-velocity only: F_n += gamma_n m_eff d'
   TangentialModel tangential = TangentialModel::CundallStrack;  ///< contact.tangential (with friction)
+  // Hertz-Mindlin tangential law (contact.tangential = "hertz-mindlin"; Hertz normal law only). Exactly
+  // one of shearModulus and poissonRatio gives G*; tangential_stiffness_ratio does not apply.
+  double shearModulus = 0.0;           ///< effective G* (Pa) of the pair; 0 = from poissonRatio
+  std::optional<double> poissonRatio;  ///< nu of one material (or a sphere on a rigid plane): G* = E* (1-nu)/(2(2-nu))
 
   bool usesFriction() const { return friction > 0.0; }
   /// The normal dashpot is on (e < 1, or gamma_n > 0).
@@ -69,6 +75,8 @@ struct ContactParameters {
   bool elastic() const { return !normalDamped() && friction == 0.0; }
   /// Throws ConfigError naming the key: stiffness <= 0, e outside [0, 1], mu < 0, ratios < 0, ...
   void validate() const;
+  /// The tangential-law part of validate(): contact.tangential, contact.shear_modulus, contact.poisson_ratio.
+  void validateTangential() const;
   std::string describe() const;
 };
 

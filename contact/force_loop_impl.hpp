@@ -10,6 +10,7 @@
 #include <type_traits>
 
 #include "contact/force_loop.hpp"
+#include "contact/hertz_mindlin.hpp"  // its tangentialForce overload, found by the calls below
 #include "core/errors.hpp"
 #include "polydem/config.hpp"
 

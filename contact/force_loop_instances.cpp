@@ -8,7 +8,7 @@
 
 namespace polydem::contact {
 
-// 8 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
+// 9 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
 #define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
   template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
   template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
@@ -27,6 +27,7 @@ POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityFrictionLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(LinearLammpsLaw)
 POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLammpsLaw)
+POLYDEM_FORCE_KERNEL_INSTANCES(HertzMindlinLaw)
 #undef POLYDEM_FORCE_KERNEL_INSTANCES
 
 namespace {
@@ -45,6 +46,7 @@ typename Law::Params paramsFor(const ContactModel& model) {
                 std::is_same_v<typename Law::TangentialLaw, LammpsHistory>) {
     p.tangential = model.tangentialParams();
   }
+  if constexpr (std::is_same_v<typename Law::TangentialLaw, HertzMindlin>) p.tangential = hertzMindlinParams(model);
   return p;
 }
 
@@ -93,6 +95,7 @@ ForceKernel selectForceKernel(const ContactModel& model, KernelFlags flags, bool
   const bool linear = model.parameters().normal == NormalModel::Linear;
   const bool friction = general || model.parameters().usesFriction();
   if (general) flags = {true, true, true};
+  if (friction && model.parameters().tangential == TangentialModel::HertzMindlin) return make<HertzMindlinLaw>(flags);
   const bool lammps = model.parameters().tangential == TangentialModel::LammpsHistory;
   if (model.parameters().damping == DampingModel::MassVelocity) {
     if (friction && lammps) return make<LinearMassVelocityLammpsLaw>(flags);
@@ -108,9 +111,17 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
   const bool hasHistory = ctx.pairHistory != nullptr && ctx.pairHistory->width() > 0;
   const CundallStrack::Params tp = model.tangentialParams();
   const bool linear = model.parameters().normal == NormalModel::Linear;
+  // Hertz-Mindlin histories hold the spring force F (N), whose energy is |F|^2 / (2 k_t); Cundall-Strack
+  // ones the displacement xi (m), whose energy is k_t |xi|^2 / 2.
+  const bool mindlin = model.parameters().tangential == TangentialModel::HertzMindlin;
+  const double mindlinRatio = mindlin ? mindlinStiffnessRatio(model.parameters()) : 0.0;
   auto tangentialStiffness = [&](double overlap, double reff) {
     if (linear) return tp.stiffnessRatio * LinearNormal::pairStiffness(model.linearParams(), reff);
     return tp.stiffnessRatio * model.parameters().stiffness * std::sqrt(reff) * std::sqrt(overlap);
+  };
+  auto tangentialEnergy = [&](double overlap, double reff, double sq) {
+    if (mindlin) return 0.5 * sq / (mindlinRatio * model.parameters().stiffness * std::sqrt(reff * overlap));
+    return 0.5 * tangentialStiffness(overlap, reff) * sq;
   };
   auto consider = [&](double ratio, Index i, Index j) {
     if (ratio > s.maxOverlapRatio) {
@@ -142,7 +153,7 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
       if (hasHistory) {
         const double* xi3 = ctx.pairHistory->values(static_cast<std::size_t>(c));
         const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
-        s.elasticEnergy += 0.5 * tangentialStiffness(overlap, reff) * sq;
+        s.elasticEnergy += tangentialEnergy(overlap, reff, sq);
       }
       consider(overlap / std::min(ri, rj), i, j);
     }
@@ -160,7 +171,7 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
     if (wallHistory) {
       const double* xi3 = ctx.wallHistory->values(c);
       const double sq = xi3[0] * xi3[0] + xi3[1] * xi3[1] + xi3[2] * xi3[2];
-      s.elasticEnergy += 0.5 * tangentialStiffness(overlap, ctx.radius[i]) * sq;
+      s.elasticEnergy += tangentialEnergy(overlap, ctx.radius[i], sq);
     }
     consider(overlap / ctx.radius[i], i, -1 - face);
   }

@@ -311,13 +311,28 @@ void readContact(Section contact, RelaxScene& s) {
   c.dampingRate = contact.number("gamma_n", c.dampingRate);
   c.restitution = contact.number("restitution", c.restitution);
   c.friction = contact.number("friction", c.friction);
-  c.tangential =
-      contact.choice("tangential", "cundall-strack", {"cundall-strack", "lammps-history"}) == "lammps-history"
-          ? contact::TangentialModel::LammpsHistory
-          : contact::TangentialModel::CundallStrack;
+  // Tangential law: Cundall-Strack (default), LAMMPS gran/hooke/history's variant, or Hertz-Mindlin with the
+  // pair's G* (or one Poisson ratio).
+  const std::string tangential =
+      contact.choice("tangential", "cundall-strack", {"cundall-strack", "lammps-history", "hertz-mindlin"});
+  c.tangential = tangential == "lammps-history"  ? contact::TangentialModel::LammpsHistory
+                 : tangential == "hertz-mindlin" ? contact::TangentialModel::HertzMindlin
+                                                 : contact::TangentialModel::CundallStrack;
   c.tangentialStiffnessRatio = contact.number("tangential_stiffness_ratio", c.tangentialStiffnessRatio);
   c.tangentialDampingRatio = contact.number("tangential_damping_ratio", c.tangentialDampingRatio);
   c.referenceVelocity = contact.number("reference_velocity", c.referenceVelocity);
+  if (c.tangential == contact::TangentialModel::HertzMindlin) {
+    if (contact.has("tangential_stiffness_ratio")) {
+      throw ConfigError(
+          "contact.tangential_stiffness_ratio applies to contact.tangential = \"cundall-strack\" only (Hertz-Mindlin "
+          "takes k_t = 8 G* sqrt(R* d) from contact.shear_modulus or contact.poisson_ratio)");
+    }
+  }
+  c.shearModulus = contact.number("shear_modulus", c.shearModulus);
+  if (contact.has("shear_modulus") && !(c.shearModulus > 0.0)) {
+    throw ConfigError(fmt::format("contact.shear_modulus must be > 0, got {}", c.shearModulus));
+  }
+  if (contact.has("poisson_ratio")) c.poissonRatio = contact.number("poisson_ratio", 0.0);
   contact.finish();
   c.validate();
 }
@@ -506,10 +521,16 @@ std::string defaultSceneToml() {
   t += fmt::format("restitution = {}\n", num(c.restitution));
   t += "# gamma_n = 5000.0  # required with damping = \"mass-velocity\": 1/s, F_n += gamma_n m_eff d'\n";
   t += fmt::format("friction = {}\n", num(c.friction));
-  t += fmt::format("tangential = \"{}\"  # cundall-strack, or lammps-history (LAMMPS gran/hooke/history)\n",
-                   c.tangential == contact::TangentialModel::LammpsHistory ? "lammps-history" : "cundall-strack");
+  t += fmt::format(
+      "tangential = \"{}\"  # cundall-strack, lammps-history (LAMMPS gran/hooke/history) or hertz-mindlin (hertz "
+      "law only)\n",
+      c.tangential == contact::TangentialModel::LammpsHistory  ? "lammps-history"
+      : c.tangential == contact::TangentialModel::HertzMindlin ? "hertz-mindlin"
+                                                               : "cundall-strack");
   t += fmt::format("tangential_stiffness_ratio = {}\n", num(c.tangentialStiffnessRatio));
   t += fmt::format("tangential_damping_ratio = {}\n", num(c.tangentialDampingRatio));
+  t += "# shear_modulus = 1e10  # hertz-mindlin, example value: the pair's G* (Pa), 1/G* = (2-nu1)/G1 + (2-nu2)/G2\n";
+  t += "# poisson_ratio = 0.3  # hertz-mindlin, instead: one material, G* = E* (1-nu) / (2 (2-nu))\n";
   t += fmt::format("reference_velocity = {}  # m/s, hertz only; 0 = twice the fastest particle\n\n",
                    num(c.referenceVelocity));
   t += "[velocities]\n";
