@@ -8,6 +8,7 @@
 // along x. The contact-point velocity of a relative to b is v_c = (v_a - v_b) - (R_a w_a + R_b w_b) x n
 // (the force kernel's lever arms, to first order in the overlap).
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <limits>
