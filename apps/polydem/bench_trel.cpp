@@ -1,4 +1,4 @@
-// polydem bench, suite trel: seed 000 Fig. 2.6, DEM time relative to the monodisperse system against N.
+// polydem bench, suite trel: Ogarko's thesis Fig. 2.6, DEM time relative to the monodisperse system against N.
 #include "apps/polydem/bench_common.hpp"
 
 namespace polydem::app::bench {
@@ -81,7 +81,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
   csv << "system,N,packing,placement,backend,broad_phase_choice,steps,us_per_particle_step,spread,t_rel,"
          "broad_phase_share,force_share,integration_share,rebuilds,pairs_per_particle,bytes_per_particle\n";
   markdown += fmt::format(
-      "## DEM time relative to the monodisperse system against N (seed 000 Fig. 2.6)\n\n"
+      "## DEM time relative to the monodisperse system against N (Ogarko & Luding 2012; Ogarko's thesis Fig. 2.6)\n\n"
       "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere). Every state\n"
       "(random sequential addition, event-driven compression where RSA stalls) is then relaxed by {:g} hard-sphere\n"
       "collisions per particle at fixed density, so all systems have the local structure of a fluid. Linear\n"
