@@ -234,77 +234,77 @@ struct Delaunay::Impl {
     }
     return visits;
   }
-};
+  // ---- build steps (Delaunay::doBuild) ----
 
-Delaunay::Delaunay() : impl_(std::make_unique<Impl>()) {}
-Delaunay::~Delaunay() = default;
-Delaunay::Delaunay(Delaunay&&) noexcept = default;
-Delaunay& Delaunay::operator=(Delaunay&&) noexcept = default;
-
-void Delaunay::doBuild(const SphereView& spheres) {
-  Impl& m = *impl_;
-  const Index n = spheres.count();
-  m.margin = 1e-12 * (box_.lengths().maxCoeff() + 2.0 * maxRadius_ + skin_);
-  auto ballRadius = [&](double r) { return (r + 0.5 * skin_) * (1.0 + 1e-9) + m.margin; };
-  m.maxR = ballRadius(maxRadius_);
-  m.pts.resize(static_cast<std::size_t>(n));
-  m.vertex.assign(static_cast<std::size_t>(n), VH());
-  m.nextImage.assign(static_cast<std::size_t>(n), kNone);
-  m.firstImage.assign(static_cast<std::size_t>(n), kNone);
-  m.stamp.assign(static_cast<std::size_t>(n), 0u);
-  m.currentStamp = 0;
-  m.freeIds.clear();
-  m.liveImages = 0;
-  for (Index i = 0; i < n; ++i) {
-    Impl::Point& p = m.pts[i];
-    for (int k = 0; k < 3; ++k) p.c[k] = spheres.centre(k, i);
-    p.R = ballRadius(spheres.radius[i]);
-    p.particle = i;
-    p.layer = 0;
-    p.live = true;
-    p.shift[0] = p.shift[1] = p.shift[2] = 0;
-  }
-  for (Index i = 0; i < n; ++i) m.makeImages(box_, i, [](Index) {});
-  const Index total = static_cast<Index>(m.pts.size());
-  m.vertex.resize(static_cast<std::size_t>(total));
-
-  // Layers: triangulate, collect the hidden ids, triangulate those, until none is hidden.
-  m.layers.clear();
-  std::vector<Index> current(static_cast<std::size_t>(total));
-  for (Index id = 0; id < total; ++id) current[id] = id;
-  std::vector<std::pair<WP, Index>> input;
-  std::vector<char> isVertex(static_cast<std::size_t>(total), 0);
-  stats_.hidden = 0;
-  while (!current.empty()) {
-    const int layer = static_cast<int>(m.layers.size());
-    auto t = std::make_unique<RT>();
-    input.clear();
-    for (Index id : current) input.emplace_back(m.weighted(id), id);
-    t->insert(input.begin(), input.end());
-    for (auto v = t->finite_vertices_begin(); v != t->finite_vertices_end(); ++v) {
-      const Index id = v->info();
-      isVertex[id] = 1;
-      m.vertex[id] = v;
-      m.pts[id].layer = layer;
+  /// The points of a fresh build: one per particle (ball radius (r + skin/2)(1 + 1e-9) + margin) and
+  /// its periodic images; resets the image lists, stamps and free ids.
+  void resetPoints(const SphereView& spheres, const Box& box, double skin, double maxRadius) {
+    const Index n = spheres.count();
+    margin = 1e-12 * (box.lengths().maxCoeff() + 2.0 * maxRadius + skin);
+    auto ballRadius = [&](double r) { return (r + 0.5 * skin) * (1.0 + 1e-9) + margin; };
+    maxR = ballRadius(maxRadius);
+    pts.resize(static_cast<std::size_t>(n));
+    vertex.assign(static_cast<std::size_t>(n), VH());
+    nextImage.assign(static_cast<std::size_t>(n), kNone);
+    firstImage.assign(static_cast<std::size_t>(n), kNone);
+    stamp.assign(static_cast<std::size_t>(n), 0u);
+    currentStamp = 0;
+    freeIds.clear();
+    liveImages = 0;
+    for (Index i = 0; i < n; ++i) {
+      Point& p = pts[i];
+      for (int k = 0; k < 3; ++k) p.c[k] = spheres.centre(k, i);
+      p.R = ballRadius(spheres.radius[i]);
+      p.particle = i;
+      p.layer = 0;
+      p.live = true;
+      p.shift[0] = p.shift[1] = p.shift[2] = 0;
     }
-    std::vector<Index> hidden;
-    for (Index id : current) {
-      if (!isVertex[id]) hidden.push_back(id);
-    }
-    if (layer == 0) stats_.hidden = static_cast<Index>(hidden.size());
-    m.layers.push_back(std::move(t));
-    if (hidden.size() == current.size()) {
-      throw std::logic_error("delaunay: a regular triangulation kept none of its points");  // cannot happen
-    }
-    current.swap(hidden);
+    for (Index i = 0; i < n; ++i) makeImages(box, i, [](Index) {});
+    vertex.resize(pts.size());
   }
 
-  // The triangulation graph of every layer as CSR over ids. CGAL's finite-edge iterator circulates
-  // around every edge to pick a canonical cell (half the build time here), so in 3D the edges are
-  // read off the cells instead (12 directed edges each) and rows are deduplicated with stamps.
-  m.graphStart.assign(static_cast<std::size_t>(total) + 1, 0);
-  auto forEachDirectedEdge = [&m](auto&& f) {
-    for (const auto& t : m.layers) {
+  /// Layers: triangulate ids 0 .. total - 1, collect the hidden ids, triangulate those, until none is
+  /// hidden. Returns the number hidden in the first layer.
+  Index triangulateLayers(Index total) {
+    layers.clear();
+    std::vector<Index> current(static_cast<std::size_t>(total));
+    for (Index id = 0; id < total; ++id) current[id] = id;
+    std::vector<std::pair<WP, Index>> input;
+    std::vector<char> isVertex(static_cast<std::size_t>(total), 0);
+    Index hiddenInFirst = 0;
+    while (!current.empty()) {
+      const int layer = static_cast<int>(layers.size());
+      auto t = std::make_unique<RT>();
+      input.clear();
+      for (Index id : current) input.emplace_back(weighted(id), id);
+      t->insert(input.begin(), input.end());
+      for (auto v = t->finite_vertices_begin(); v != t->finite_vertices_end(); ++v) {
+        const Index id = v->info();
+        isVertex[id] = 1;
+        vertex[id] = v;
+        pts[id].layer = layer;
+      }
+      std::vector<Index> hidden;
+      for (Index id : current) {
+        if (!isVertex[id]) hidden.push_back(id);
+      }
+      if (layer == 0) hiddenInFirst = static_cast<Index>(hidden.size());
+      layers.push_back(std::move(t));
+      if (hidden.size() == current.size()) {
+        throw std::logic_error("delaunay: a regular triangulation kept none of its points");  // cannot happen
+      }
+      current.swap(hidden);
+    }
+    return hiddenInFirst;
+  }
+
+  /// Call f(a, b) for every directed edge of every layer. CGAL's finite-edge iterator circulates
+  /// around every edge to pick a canonical cell (half the build time here), so in 3D the edges are
+  /// read off the cells instead (12 directed edges each, repeated for edges shared by cells).
+  template <class F>
+  void forEachDirectedEdge(F&& f) const {
+    for (const auto& t : layers) {
       if (t->dimension() == 3) {
         for (auto c = t->finite_cells_begin(); c != t->finite_cells_end(); ++c) {
           const Index v[4] = {c->vertex(0)->info(), c->vertex(1)->info(), c->vertex(2)->info(), c->vertex(3)->info()};
@@ -322,60 +322,84 @@ void Delaunay::doBuild(const SphereView& spheres) {
         }
       }
     }
-  };
-  forEachDirectedEdge([&m](Index a, Index) { ++m.graphStart[a + 1]; });
-  for (Index id = 0; id < total; ++id) m.graphStart[id + 1] += m.graphStart[id];
-  m.graphAdj.resize(static_cast<std::size_t>(m.graphStart[total]));
-  {
-    std::vector<Index> fill(m.graphStart.begin(), m.graphStart.end() - 1);
-    forEachDirectedEdge([&](Index a, Index b) { m.graphAdj[fill[a]++] = b; });
+  }
+
+  /// The triangulation graph of every layer as CSR over ids (graphStart, graphAdj), rows deduplicated
+  /// with stamps.
+  void buildGraph(Index total) {
+    graphStart.assign(static_cast<std::size_t>(total) + 1, 0);
+    forEachDirectedEdge([this](Index a, Index) { ++graphStart[a + 1]; });
+    for (Index id = 0; id < total; ++id) graphStart[id + 1] += graphStart[id];
+    graphAdj.resize(static_cast<std::size_t>(graphStart[total]));
+    std::vector<Index> fill(graphStart.begin(), graphStart.end() - 1);
+    forEachDirectedEdge([&](Index a, Index b) { graphAdj[fill[a]++] = b; });
     // Compact each row to distinct neighbours (an edge is shared by several cells).
     std::vector<Index> seen(static_cast<std::size_t>(total), kNone);
     Index write = 0;
     for (Index id = 0; id < total; ++id) {
-      const Index begin = m.graphStart[id], end = m.graphStart[id + 1];
-      m.graphStart[id] = write;
+      const Index begin = graphStart[id], end = graphStart[id + 1];
+      graphStart[id] = write;
       for (Index k = begin; k < end; ++k) {
-        const Index w = m.graphAdj[k];
+        const Index w = graphAdj[k];
         if (seen[w] == id) continue;
         seen[w] = id;
-        m.graphAdj[write++] = w;
+        graphAdj[write++] = w;
       }
     }
-    m.graphStart[total] = write;
-    m.graphAdj.resize(static_cast<std::size_t>(write));
+    graphStart[total] = write;
+    graphAdj.resize(static_cast<std::size_t>(write));
   }
-  auto graph = [&m](Index v, auto&& f) {
-    for (Index k = m.graphStart[v]; k < m.graphStart[v + 1]; ++k) f(m.graphAdj[k]);
-  };
 
-  // Walks. Within a layer every pair is found from both ends: an original reports another original
-  // of its layer only from the smaller particle index. Images and cross-layer finds are reported
-  // as found, and the table dedupes.
-  m.found.clear();
-  std::size_t visits = 0;
-  for (Index id = 0; id < total; ++id) {
-    const Impl::Point& q = m.pts[id];
-    const bool original = id < n;
-    if (!original && q.layer == 0) continue;  // visible images: their pairs are found from originals
-    const Index qp = q.particle;
-    const double* xq = spheres.centre.col(qp).data();
-    const double rq = spheres.radius[qp];
-    auto report = [&](Index v, bool crossLayer) {
-      const Index p = m.pts[v].particle;
-      if (p == qp) return;
-      if (!crossLayer && v < n && p < qp) return;
-      if (spheresWithinReach(box_, xq, rq, spheres.centre.col(p).data(), spheres.radius[p], skin_)) {
-        m.found.push_back(qp < p ? Pair{qp, p} : Pair{p, qp});
-      }
+  /// Walks into `found`; returns the vertices examined. Within a layer every pair is found from both
+  /// ends: an original reports another original of its layer only from the smaller particle index.
+  /// Images and cross-layer finds are reported as found, and the table dedupes.
+  std::size_t walkAll(const SphereView& spheres, const Box& box, double skin) {
+    const Index n = spheres.count();
+    const Index total = static_cast<Index>(pts.size());
+    auto graph = [this](Index v, auto&& f) {
+      for (Index k = graphStart[v]; k < graphStart[v + 1]; ++k) f(graphAdj[k]);
     };
-    if (original) visits += m.walk(id, id, graph, [&](Index v) { report(v, false); });
-    for (int b = 0; b < q.layer; ++b) {
-      // q is hidden in layer b, so the power-nearest vertex of its centre has a ball meeting B_q.
-      const VH start = m.layers[b]->nearest_power_vertex(BP(q.c[0], q.c[1], q.c[2]));
-      visits += m.walk(id, start->info(), graph, [&](Index v) { report(v, true); });
+    found.clear();
+    std::size_t visits = 0;
+    for (Index id = 0; id < total; ++id) {
+      const Point& q = pts[id];
+      const bool original = id < n;
+      if (!original && q.layer == 0) continue;  // visible images: their pairs are found from originals
+      const Index qp = q.particle;
+      const double* xq = spheres.centre.col(qp).data();
+      const double rq = spheres.radius[qp];
+      auto report = [&](Index v, bool crossLayer) {
+        const Index p = pts[v].particle;
+        if (p == qp) return;
+        if (!crossLayer && v < n && p < qp) return;
+        if (spheresWithinReach(box, xq, rq, spheres.centre.col(p).data(), spheres.radius[p], skin)) {
+          found.push_back(qp < p ? Pair{qp, p} : Pair{p, qp});
+        }
+      };
+      if (original) visits += walk(id, id, graph, [&](Index v) { report(v, false); });
+      for (int b = 0; b < q.layer; ++b) {
+        // q is hidden in layer b, so the power-nearest vertex of its centre has a ball meeting B_q.
+        const VH start = layers[b]->nearest_power_vertex(BP(q.c[0], q.c[1], q.c[2]));
+        visits += walk(id, start->info(), graph, [&](Index v) { report(v, true); });
+      }
     }
+    return visits;
   }
+};
+
+Delaunay::Delaunay() : impl_(std::make_unique<Impl>()) {}
+Delaunay::~Delaunay() = default;
+Delaunay::Delaunay(Delaunay&&) noexcept = default;
+Delaunay& Delaunay::operator=(Delaunay&&) noexcept = default;
+
+void Delaunay::doBuild(const SphereView& spheres) {
+  Impl& m = *impl_;
+  const Index n = spheres.count();
+  m.resetPoints(spheres, box_, skin_, maxRadius_);
+  const Index total = static_cast<Index>(m.pts.size());
+  stats_.hidden = m.triangulateLayers(total);
+  m.buildGraph(total);
+  const std::size_t visits = m.walkAll(spheres, box_, skin_);
   if (counting_) counters_.pairTests += visits;
   stats_.visits = visits;
   stats_.points = total;

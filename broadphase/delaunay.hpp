@@ -28,7 +28,9 @@
 // moved particles' rows of the pair list are recomputed. If some point is hidden (removing a vertex
 // could expose it), a move would hide one, or more than a fifth of the particles moved
 // (setMaxMovedFraction), it rebuilds instead.
-// Seed thesis L1688-1703 (weighted Delaunay family), L6757-6769 (periodicity by replication).
+// The weighted Delaunay family of broad phases: Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357
+// (Ogarko's thesis §2.2.1); periodicity by replicating the box: Ogarko & Luding, Soft Matter 9 (2013) 9530
+// (thesis §3.3.3).
 #include <memory>
 #include <vector>
 

@@ -9,7 +9,7 @@
 // L regular grids ("levels") with free, strictly increasing cell edges s_1 < ... < s_L (thesis eq. 2.1).
 // A sphere goes to the finest level whose cells hold its interaction diameter,
 // h(p) = min{h : s_h >= 2 r_p + skin} (eq. 2.3; the skin turns r into the interaction radius r + skin/2,
-// digest §1.3). Pairs on one level come from the own cell plus the 13-cell forward half shell (the
+// thesis eq. 2.11). Pairs on one level come from the own cell plus the 13-cell forward half shell (the
 // linked-cell search of §2.1.2); pairs across levels from a search box of half-width beta around the
 // sphere on every other level (eqs. 2.12-2.13, §2.2.2): Top-Down searches the finer levels j < h,
 // Bottom-Up the coarser levels j > h.
@@ -25,7 +25,7 @@
 // periodic AND walled axes. Any s' >= s keeps both searches complete, the snapped cells tile the box
 // so periodic indices wrap exactly, and the 1e-9 margin keeps two spheres within s_h of each other
 // at most one computed cell apart despite rounding (as in linked_cell.cpp). The cost model should
-// therefore use s'_h for the cell counts and (2r + skin + s_j)/s'_j + 1 cells per axis (digest §1.10).
+// therefore use s'_h for the cell counts and (2r + skin + s_j)/s'_j + 1 cells per axis (eqs. 2.57-2.64).
 // A level with n_h = 1 holds everything in one cell; periodic levels with n_h <= 2 visit the
 // distinct cells of the 3x3x3 block once instead of the half shell (forward and backward alias).
 // Walls clamp indices; a centre exactly at L belongs to the last cell. A search box spanning a whole
@@ -43,7 +43,7 @@
 // 1 : 1.4 : 1.7. The AABB pre-check costs 15-20 % there (setAabbPrecheck(false) to skip it).
 //
 // Work counters (setCounting) are the cost model's T_cd and T_ca per level of the searching sphere
-// (thesis §2.2.3, eqs. 2.20-2.30; digest §2.3): per sphere 1 own-cell look-up + one per existing
+// (thesis §2.2.3, eqs. 2.20-2.30): per sphere 1 own-cell look-up + one per existing
 // half-shell cell (13 with periodic boundaries and >= 3 cells per axis; cells behind a wall do not
 // exist), own-cell pairs with later slots, and per searched level every cell of the clamped search
 // box plus every sphere found in it. Empty levels are skipped and not counted (the model has none).
@@ -160,7 +160,7 @@ class HGrid final : public BroadPhase {
 
   /// Test the axis-aligned bounding boxes of cross-level candidates before the exact test (thesis §2.1.2;
   /// on by default). Pair sets are identical either way; with SIMD-free sphere tests it rarely pays off
-  /// (digest §1.7); measurements at the top of this file.
+  /// (measurements at the top of this file).
   void setAabbPrecheck(bool on) { aabbPrecheck_ = on; }
   bool aabbPrecheck() const { return aabbPrecheck_; }
 

@@ -101,7 +101,7 @@ std::vector<double> constantRatioCellSizes(const CostModelPsd& psd, int levels, 
   const double top = psd.maxDiameter();
   if (levels == 1 || degenerate(psd)) return std::vector<double>(static_cast<std::size_t>(levels), top);
   // Bracket: m_1 = m of the linked cell fills level 1 at once (+1); a vanishing m_1 leaves the top
-  // level overfull (-1). Bisection in log m_1 (the digest's recommendation, §2.7).
+  // level overfull (-1). Bisection in log m_1 (our choice; the rule is thesis §2.2.5).
   const double mAll = psd.numberDensity() * top * top * top;
   double lo = 1e-12 * mAll, hi = mAll;
   std::vector<double> sizes, best;
@@ -169,7 +169,7 @@ AppendixResult appendixProcedure(std::span<const double> radii, double boxVolume
   AppendixResult result;
   double bestCost = kInf;
   for (int L = 1; L <= maxLevels; ++L) {
-    // Smallest m with L(m) <= L; L(m) is non-increasing in m (digest §2.2).
+    // Smallest m with L(m) <= L; L(m) is non-increasing in m (thesis ch. 2.1 appendix).
     double lo = mOne * 1e-15, hi = mOne * (1.0 + 1e-12);
     if (appendixCount(r, boxVolume, skin, lo, L) <= L) continue;  // every m gives <= L levels
     for (int iter = 0; iter < 200 && hi > lo * (1.0 + 1e-12); ++iter) {

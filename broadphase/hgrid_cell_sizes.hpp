@@ -40,7 +40,7 @@ struct AppendixResult {
 };
 /// Number of levels L(m) of the appendix procedure for particles-per-cell limit m, on a sample sorted
 /// ascending, with N^c = V_box / (2 r_i + skin)^3 (the thesis's [S / (2 r_i)]^d taken as a real number,
-/// digest §2.2). O(L log N).
+/// thesis ch. 2.1 appendix). O(L log N).
 int appendixLevelCount(std::span<const double> sortedRadii, double boxVolume, double skin, double m);
 /// m(L) for L = 1..maxLevels by bisection on m (L(m) is non-increasing), and the ONL for this K.
 /// The thesis found K in [0.2, 0.45] for its ch. 2.1 grid (§2.1.3, from §2.1.4); 0.3 by default. O(maxLevels * 60 * L

@@ -1,7 +1,7 @@
 #pragma once
 // Parameters of the hierarchical grid, shared by the HGrid backend and its cost-model optimiser.
 // V. Ogarko, PhD thesis (University of Twente), §2.1-§2.2 = Ogarko & Luding, Comput. Phys. Commun. 183
-// (2012) 931 and Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357 (digest §1-§2).
+// (2012) 931 and Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357.
 #include <string>
 #include <vector>
 

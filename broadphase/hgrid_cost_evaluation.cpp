@@ -1,7 +1,7 @@
 // HGrid cost model: geometry of the levels and evaluation of T/N (thesis §2.2.3, eqs. 2.14-2.35); see
 // hgrid_cost_evaluation.hpp. Equations: V_p 2.14, N_h 2.17, N^c_h 2.18, m_h 2.19, own cell 2.20-2.21,
 // half neighbourhood 2.22-2.23, b(j,h) 2.24, cross-level top-down 2.27-2.28, bottom-up 2.29-2.30, totals
-// 2.31-2.34, T 2.35 (digest: shared/spec/hgrid-and-polydispersity.md §2.3).
+// 2.31-2.34, T 2.35 (Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357).
 //
 // Every per-level quantity is a linear combination of the partial moments int_band r^k f dr, k = 0..3,
 // because b(j, h) P_h = int_band prod_k ((2 r + skin + S_j) / e_jk + 1) f dr is a cubic in r. So one

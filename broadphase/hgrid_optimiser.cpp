@@ -5,13 +5,13 @@
 //   Then BFGS with central-difference gradients (the thesis used SQP + BFGS via MATLAB fmincon, §2.2.5)
 //   on x_h = log s_h, sorted and clamped into [s_0, s_L]. The polish does not use the weights: their
 //   normaliser couples every level, and BFGS on them stalled about 1e-5 above the optimum (11.57374 vs
-//   11.57361 at alpha = -3, omega = 100, L = 8); on log sizes it reaches the digest's sizes to 4 digits,
+//   11.57361 at alpha = -3, omega = 100, L = 8); on log sizes it reaches the optimal sizes to 4 digits,
 //   and surplus levels can collapse onto s_L exactly (empty, free), which the optimum does for L > 8
-//   there (digest §2.8). Rejected: coordinate descent (slow on the chained coupling of neighbouring
+//   there (thesis Fig. 2.15). Rejected: coordinate descent (slow on the chained coupling of neighbouring
 //   sizes).
 // * Warm start: the optimum for L - 1 with one level split (tried at every level) is a feasible L-level
 //   configuration, so the tabulated optimum never increases with L; the constant-m sizes are the
-//   other start, as the digest recommends (§2.9).
+//   other start.
 #include "broadphase/hgrid_optimiser.hpp"
 
 #include <fmt/format.h>
@@ -297,7 +297,7 @@ OptimiserResult optimiseHGrid(const CostModelPsd& psd, const OptimiserOptions& o
     result.table.push_back(std::move(row));
   }
 
-  // Selection (digest §2.9 step 5): the fewest occupied levels within the tolerance of the minimum
+  // Selection: the fewest occupied levels within the tolerance of the minimum
   // over both modes. Runner-up: the same rule within the other kind.
   std::vector<Entry> all, perMode[2], constantMPerMode[2];
   for (const LevelsRow& row : result.table) {

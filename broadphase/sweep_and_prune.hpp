@@ -11,7 +11,8 @@
 // what makes SAP cheap between DEM steps (positions change little); a repair that needs too many
 // shifts falls back to std::sort. Periodic sweep axis: lower ends are wrapped into [0, L) and boxes
 // whose lower end lies below the largest box width are swept a second time shifted by +L (ghosts),
-// so boxes that straddle the face still meet. See seed thesis L1676-1686 (sort-based family).
+// so boxes that straddle the face still meet. See Krijgsman, Ogarko &
+// Luding, Comp. Part. Mech. 1 (2014) 357 (Ogarko's thesis §2.2.1: the sort-based family).
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"

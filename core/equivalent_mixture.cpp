@@ -166,7 +166,7 @@ BidisperseRatios bidisperseFromRatios(double o1, double o2) {
     throw ConfigError(fmt::format(
         "bidisperse equivalent needs 0 < O1 < 1 and O1^2 < O2 < O1 (not monodisperse), got O1 = {}, O2 = {}", o1, o2));
   }
-  // Eqs. 3.20-3.21 (digest §6.4 [R, V]).
+  // Eqs. 3.20-3.21 (Ogarko & Luding, J. Chem. Phys. 136 (2012) 124508; reconstructed from garbled print).
   const double lambda = std::sqrt(o2) * std::sqrt(4.0 * o1 * o1 * o1 + o2 - 3.0 * o1 * (2.0 + o1) * o2 + 4.0 * o2 * o2);
   BidisperseRatios r;
   r.largeNumberFraction = 0.5 + (3.0 * o1 * o2 - o2 - 2.0 * o1 * o1 * o1) / (2.0 * lambda);

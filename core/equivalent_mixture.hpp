@@ -3,8 +3,8 @@
 //   equivalent bidisperse mixture: two radii matching <a>, <a^2>, <a^3> (hence O1, O2, the fluid EOS and,
 //     at equal N and V, the packing fraction)                             (eqs. 3.20-3.21, §3.1 appendix)
 //   maximally equivalent tridisperse mixture: three radii matching <a> .. <a^5>  (§3.2, §3.3.2)
-// Both are the 2- resp. 3-node Gaussian quadrature of f(a) (digest shared/spec/hgrid-and-polydispersity.md
-// §6.4 [V], §6.5): nodes = radii, weights = number fractions; Tables 3.1, 3.3, 3.4 of the seed are
+// Both are the 2- resp. 3-node Gaussian quadrature of f(a) (Ogarko & Luding, J. Chem. Phys. 136 (2012)
+// 124508; Soft Matter 9 (2013) 9530): nodes = radii, weights = number fractions; Tables 3.1, 3.3, 3.4 of the seed are
 // reproduced by it (tests/core/equivalent_mixture_test.cpp).
 //
 // Design: the rule is built in the centred scaled variable y = a/<a> - 1 from the central moments M^c_k
@@ -56,7 +56,7 @@ std::vector<double> mixtureRadii(const Mixture& mixture, Index count);
 
 // --- Closed forms of the seed, for tests and cross-checks -------------------------------------------
 
-/// Equivalent bidisperse mixture from O1, O2 (eqs. 3.20-3.21 as reconstructed in the digest §6.4):
+/// Equivalent bidisperse mixture from O1, O2 (eqs. 3.20-3.21, reconstructed from garbled print):
 /// size ratio R_bi = a_large/a_small >= 1 and number fraction of the large species.
 /// Throws ConfigError unless 0 < O1 < 1 and O1^2 < O2 < O1 (not monodisperse).
 struct BidisperseRatios {

@@ -7,7 +7,7 @@
 // which is what the stall error points to.
 //
 // Overlap queries use a private multi-level grid in the spirit of the hierarchical grid of Ogarko &
-// Luding, Comput. Phys. Commun. 183 (2012) 931 (Ogarko's thesis §2.1.3, "Polydisperse systems"; spec §1):
+// Luding, Comput. Phys. Commun. 183 (2012) 931 (Ogarko's thesis §2.1.3, "Polydisperse systems"):
 // radii are binned by factors of 2 below the largest, each level is a dense grid whose cells are at
 // least that level's largest diameter, and a trial sphere of radius r is tested against level l over
 // the cells within r + rmax_l of its centre.

@@ -6,7 +6,7 @@
 //   scaled M_k = <a^k>/<a>^k, central M^c_k = <(a - <a>)^k>/<a>^k,
 //   kurtosis beta2 = M^c_4/(M^c_2)^2                                          (§3.2, §3.3.2)
 // Bounds: 0 < O1 <= 1 and O1^2 <= O2 <= O1, equalities only for a monodisperse distribution
-// (digest shared/spec/hgrid-and-polydispersity.md §3.2; the extraction garbled them, §9 item 9).
+// (thesis §3.1.2, reconstructed: the printed text of the bounds is garbled).
 //
 // Sources: analytic, from SizeDistribution::moment(k); or a sample of radii (a particle file's radii).
 // For a sample the central moments are summed directly around the sample mean (two passes), which

@@ -11,7 +11,7 @@
 //   systematic sampling guarantees the rare largest sizes are present  (Ogarko's thesis §2.1.3 and Fig. 2.3;
 //     §3.1.3; Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931; J. Chem. Phys. 136 (2012) 124508)
 // The seed does not print the systematic-sampling formula; we use the standard one (one offset u for all
-// strata, spec §3.3): r_i = F^-1((i + u) / N).
+// strata): r_i = F^-1((i + u) / N).
 //
 // Numerics: power-law CDFs, quantiles and moments are written with expm1/log1p in the variable
 // x = ln(r / rmin), so alpha + k + 1 = 0 (logarithmic case) and values close to it need no special care

@@ -1,7 +1,7 @@
 #pragma once
 // Particle size distributions (number densities of radii) and their sampling.
 //
-// Definitions follow Ogarko's thesis ch. 2.2.4 and ch. 3 (digest: shared/spec/hgrid-and-polydispersity.md §3):
+// Definitions follow Ogarko's thesis ch. 2.2.4 and ch. 3:
 //   mono            all radii r0
 //   bi              radii r_s and r_b = omega r_s, the large species given as a volume or number fraction
 //   uniform-radius  f(r) = const on [rmin, omega rmin]            (the seed's "US", alpha = 0)

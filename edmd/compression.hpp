@@ -7,7 +7,7 @@
 // §1.1.1; fast initial growth against crystallisation, slow final stage for collective jamming, §11.3;
 // the d = 4 "mix" schedule (a decade slower per few decades of pressure), Figure 11.3; thermostat by
 // velocity rescaling, §3.2.4; free-volume estimate of the jamming density phi_J = phi / (1 - d/p), eq. 1.2.
-// Digest shared/spec/event-driven-and-jamming.md §2.8 [rec] default 3D schedule, §2.11 driver.
+// The default 3D schedule and the driver are our adaptation of these.
 //
 // Rates are dimensionless: Gamma = (dO_max/dt) / v_th, the growth speed of the largest radius in units
 // of the thermal speed v_th = sqrt(sum m v^2 / sum m), which the thermostat holds at 1. Every radius grows
@@ -42,7 +42,7 @@ struct CompressionOptions {
   double targetPackingFraction = 0.0;  ///< > 0: stop exactly at this packing fraction instead
   double maxCollisionsPerParticle = 1e7;
   /// Collisions per particle between synchronisations (thermostat, pressure reading); 0 = automatic:
-  /// clamp(0.01 / Gamma, 10, 1000), which keeps the heating of a block near 2% (digest §2.4).
+  /// clamp(0.01 / Gamma, 10, 1000), which keeps the heating of a block near 2% (our estimate).
   double blockCollisionsPerParticle = 0.0;
   double thermalSpeed = 1.0;
   /// false: skip the precision limit of the target pressure (tests of the plateau detection only).

@@ -1,7 +1,7 @@
 #pragma once
 // Event-driven molecular dynamics (EDMD) of hard spheres with radii growing in proportion to their size,
 // the engine of the Lubachevsky-Stillinger compression (A. Donev, "Jammed Packings of Hard Particles", PhD
-// thesis, Princeton University (2006), ch. 3; digest shared/spec/event-driven-and-jamming.md §1).
+// thesis, Princeton University (2006), ch. 3).
 //
 // Design (Donev 2006, §3.4, Algorithms 2-5):
 // * Every particle lives at its own time: its state (x, v, t_i, radius at the last synchronisation) is
@@ -13,7 +13,7 @@
 //   i's best event and j's current event, t_c < min(t_e(i), t_e(j)) (Donev 2006, Algorithm 5, step 4); a claimed
 //   particle's previous partner is lazily relabelled a check at its old time (Algorithm 5, step 5). The strict test is
 //   what stops a just-collided pair from being re-predicted at zero delay by the first of the two.
-// * Near-neighbour lists with bounding neighbourhoods (Donev 2006, §3.3.2; digest §1.11): neighbourhood i is a sphere
+// * Near-neighbour lists with bounding neighbourhoods (Donev 2006, §3.3.2): neighbourhood i is a sphere
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
@@ -31,10 +31,10 @@
 //   event, state and neighbourhood are prefetched one event ahead, and a collision partner's data
 //   before the collision arithmetic (process()).
 // * Growth: O_i(t) = O_i(0) (1 + g t) with one relative rate g (1/s), so dO_i/dt is proportional to O_i
-//   and the size distribution keeps its shape (V. Ogarko, PhD thesis, University of Twente, eq. 3.22; digest §2.3).
+//   and the size distribution keeps its shape (V. Ogarko, PhD thesis, University of Twente, eq. 3.22).
 // * Collisions: kinematics.hpp (robust quadratic, elastic rule with the growth term).
 // * Pressure: collisional virial over a window, p = PV/(N k_B T) = 1 + sum(|r_ij| J) / (2 int K dt)
-//   (digest §2.5; equal to Ogarko's thesis form Z = 1 + sum |dp| l / (2 E dt), eq. 3.33). Wall collisions add
+//   (Donev 2006, §3.2.4; equal to Ogarko's thesis form Z = 1 + sum |dp| l / (2 E dt), eq. 3.33). Wall collisions add
 //   O_i J (the distance from the centre to the contact point), which makes p the pressure on the walls.
 // * Masses proportional to O^3 (uniform density), scaled so the mean mass is 1.
 //

@@ -1,6 +1,6 @@
 #pragma once
 // The index of bounding neighbourhoods that answers the one query of a neighbourhood exit (Donev 2006,
-// thesis, §3.4.7, Algorithm 10; digest §1.11): which neighbourhoods
+// thesis, §3.4.7, Algorithm 10): which neighbourhoods
 // overlap the re-centred neighbourhood of sphere i. A multi-level grid: level l holds the spheres with
 // radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least twice the level's largest radius, each cell a
 // doubly linked list, so a move is O(1) and a query visits the cells within r_i + (largest radius of the

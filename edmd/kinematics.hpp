@@ -2,10 +2,9 @@
 // Closed-form kinematics of hard spheres whose radii grow linearly in time: pair collision times,
 // bounding-neighbourhood exit times, wall collision times, and the elastic collision rule with growth.
 //
-// Pair collision (digest shared/spec/event-driven-and-jamming.md §1.7, reconstructed there and
-// cross-checked against the public Skoge-Donev code; Donev 2006 (thesis), §3.2.2, states "first positive
-// root of a quadratic"). With r = x_i - x_j (minimum image),
-// u = v_i - v_j, contact distance s = O_i + O_j and its growth rate sd = gamma_i + gamma_j:
+// Pair collision (our derivation, cross-checked against the public Skoge-Donev code; Donev 2006 (thesis), §3.2.2,
+// states "first positive root of a quadratic"). With r = x_i - x_j (minimum image), u = v_i - v_j, contact distance s =
+// O_i + O_j and its growth rate sd = gamma_i + gamma_j:
 //   |r + u tau|^2 = (s + sd tau)^2   <=>   a tau^2 + 2 b tau + c = 0,
 //   a = u.u - sd^2,  b = r.u - s sd,  c = r.r - s^2.
 // Roots are taken in the cancellation-free forms c / (-b + sqrt(b^2 - a c)) and -(b + sqrt(..)) / a,
@@ -16,7 +15,7 @@
 // recovery, Donev 2006, §3.5.1), separating -> only the growth root. collide() uses the very same
 // approachRate(), so a pair it has just processed is never predicted to collide again at zero delay.
 //
-// Elastic collision of growing spheres (Donev 2006, §6.3.2; digest §1.8): momentum is exchanged
+// Elastic collision of growing spheres (Donev 2006, §6.3.2): momentum is exchanged
 // along n = r/|r| only and the relative normal velocity of the two *surfaces*, hdot = u.n - sd, is
 // reversed. The impulse J = 2 mu (-hdot) (mu = reduced mass) does the work of the growth agent, so every
 // collision of growing spheres injects energy; the thermostat removes it.
@@ -73,7 +72,7 @@ inline double pairCollisionDelay(const ContactQuadratic& q, bool approaching) {
 /// Delay (s) until a sphere of radius `radius` growing at `rate` (m/s), at offset d from the centre of
 /// its bounding neighbourhood of radius `bound`, touches the neighbourhood's inner surface moving with
 /// velocity v: |d + v tau| = (bound - radius) - rate tau. 0 if it is already there. The gap function is
-/// concave, so there is exactly one crossing and -C / (B + sqrt(B^2 - A C)) never cancels (digest §1.11).
+/// concave, so there is exactly one crossing and -C / (B + sqrt(B^2 - A C)) never cancels (Donev 2006, §3.3.2).
 inline double exitDelay(const double d[3], const double v[3], double radius, double rate, double bound) {
   const double g0 = bound - radius;
   if (!(g0 > 0.0)) return 0.0;

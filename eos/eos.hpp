@@ -15,7 +15,8 @@
 //   Z_CS    = (1 + nu + nu^2 - nu^3)/(1-nu)^3 (monodisperse Carnahan-Starling; = Z_BMCSL at O1 = O2 = 1)
 // Near jamming, the free-volume (Salsburg-Wood) law Z = d/(1 - nu/phi_J) and its inversion, the estimator
 // phi_J = nu/(1 - d/Z) (eq. 3.14, §3.1.3).
-// Jamming-density fits nu_max = nu_inf - (nu_inf - phi_RCP) F (natural logarithms; digest §9 items 10-12):
+// Jamming-density fits nu_max = nu_inf - (nu_inf - phi_RCP) F (natural logarithms, the reading
+// that gives eq. 3.16 its zero slope at omega = 1; eq. 3.55's second exponent read as sigma^3):
 //   US  eq. 3.15 (§3.1.3): F = 3 omega^-2 - 2 omega^-3,                         nu_inf 0.6828, phi_RCP 0.65
 //   UV  eq. 3.16 (§3.1.3): F = (omega^-1 - omega^-2 + omega^-3)(1 + 2 ln omega), nu_inf 0.859,  phi_RCP 0.647
 //   LN  eq. 3.52 (§3.3.2): F = exp(-2 sigma^2) = (D32/D43)^2 (eq. 3.54),         nu_inf 0.7990, phi_RCP 0.6373

@@ -135,6 +135,67 @@ bool startingPoint(NormalFactor& factor, const SparseMatrix& e, const SparseMatr
   return true;
 }
 
+// Newton directions of one iteration and their buffers (reused across iterations).
+struct Directions {
+  Directions(Eigen::Index m, Eigen::Index n) : rhs(m), dy(m), ds(n), dz(n), rc(n), dzAff(n), dsAff(n) {}
+  Eigen::VectorXd rhs, dy, ds, dz, rc, dzAff, dsAff;
+};
+
+// Step lengths of one iteration (and what the trace reports).
+struct StepLengths {
+  double alphaPAff, alphaDAff, sigma;  // affine-scaling step lengths, centring parameter
+  int correctors;                      // accepted centrality correctors
+  double alphaP, alphaD;               // primal and dual step lengths taken
+};
+
+// Mehrotra's predictor-corrector direction (dz, ds, dy) into dir, with Gondzio's correctors, for the
+// residuals rp, rd at (z, s) with D = diag(d) already factorised.
+StepLengths predictorCorrector(const Cholesky& cholesky, const SparseMatrix& e, const SparseMatrix& et,
+                               const Eigen::VectorXd& z, const Eigen::VectorXd& s, const Eigen::VectorXd& d,
+                               const Eigen::VectorXd& rp, const Eigen::VectorXd& rd, double mu, double nd,
+                               int maxCorrectors, Directions& dir) {
+  // K dy = rp + E (d rd - rc / s);  ds = rd - E^T dy;  dz = rc / s - d ds.
+  auto newton = [&](const Eigen::VectorXd& rcv) {
+    dir.rhs = rp + e * (d.cwiseProduct(rd) - rcv.cwiseQuotient(s));
+    dir.dy = cholesky.solve(dir.rhs);
+    dir.ds = rd - et * dir.dy;
+    dir.dz = rcv.cwiseQuotient(s) - d.cwiseProduct(dir.ds);
+  };
+  dir.rc = -z.cwiseProduct(s);
+  newton(dir.rc);
+  StepLengths out;
+  out.alphaPAff = maxStep(z, dir.dz);
+  out.alphaDAff = maxStep(s, dir.ds);
+  const double muAff = (z + out.alphaPAff * dir.dz).dot(s + out.alphaDAff * dir.ds) / nd;
+  out.sigma = std::pow(std::clamp(muAff / mu, 0.0, 1.0), 3);
+  dir.dzAff = dir.dz;
+  dir.dsAff = dir.ds;
+  dir.rc.array() += out.sigma * mu - dir.dzAff.cwiseProduct(dir.dsAff).array();
+  newton(dir.rc);
+  // Gondzio's centrality correctors (J. Gondzio, Comput. Optim. Appl. 6, 137 (1996)): aim at longer
+  // steps by pulling the complementarity products of the trial point into [0.1, 10] x the target;
+  // each costs one solve with the same factor (~3% of a factorisation here). Accepted while they
+  // lengthen the step.
+  double stepP = maxStep(z, dir.dz), stepD = maxStep(s, dir.ds);
+  out.correctors = centralityCorrectors(cholesky, e, et, z, s, d, out.sigma * mu, maxCorrectors, stepP, stepD, dir.dz,
+                                        dir.ds, dir.dy);
+  constexpr double kEta = 0.995;
+  out.alphaP = std::min(1.0, kEta * stepP);
+  out.alphaD = std::min(1.0, kEta * stepD);
+  return out;
+}
+
+// Objectives and scaled residuals of the iterate (z, y) into out; returns the relative duality gap.
+double measureIterate(const Eigen::VectorXd& r, const Eigen::VectorXd& c, const Eigen::VectorXd& z,
+                      const Eigen::VectorXd& y, const Eigen::VectorXd& rp, const Eigen::VectorXd& rd, double rNorm,
+                      double cNorm, InteriorPointResult& out) {
+  out.primalObjective = c.dot(z);
+  out.dualObjective = r.dot(y);
+  out.primalResidual = rp.norm() / rNorm;
+  out.dualResidual = rd.norm() / cNorm;
+  return std::abs(out.primalObjective - out.dualObjective) / (1.0 + std::abs(out.primalObjective));
+}
+
 // Not converged: the best iterate, with why the method stopped (the last iteration's count kept).
 InteriorPointResult bestIterate(InteriorPointResult out, InteriorPointResult best,
                                 const InteriorPointOptions& options) {
@@ -181,7 +242,7 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
   InteriorPointResult out;
   const SparseMatrix et = e.transpose();
   NormalFactor factor(e, et);
-  Cholesky& cholesky = factor.cholesky;
+  const Cholesky& cholesky = factor.cholesky;
   auto factorise = [&](const Eigen::VectorXd& d) { return factor.factorise(d); };
 
   Eigen::VectorXd y, s, z;
@@ -192,7 +253,9 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
 
   const double rNorm = 1.0 + r.norm(), cNorm = 1.0 + c.norm();
   const double nd = static_cast<double>(n);
-  Eigen::VectorXd d(n), rhs(m), dy(m), ds(n), dz(n), rc(n), dzAff(n), dsAff(n);
+  Eigen::VectorXd d(n);
+  Directions dir(m, n);
+  const Eigen::VectorXd &dy = dir.dy, &ds = dir.ds, &dz = dir.dz;
   // The best iterate by the worst of the three criteria relative to its tolerance: past the optimum the
   // round-off in the solves can make the primal residual grow again, and the best point is returned.
   InteriorPointResult best;
@@ -214,12 +277,8 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
     const Eigen::VectorXd rp = r - e * z;
     const Eigen::VectorXd rd = c - et * y - s;
     const double mu = z.dot(s) / nd;
-    out.primalObjective = c.dot(z);
-    out.dualObjective = r.dot(y);
-    out.primalResidual = rp.norm() / rNorm;
-    out.dualResidual = rd.norm() / cNorm;
+    const double gap = measureIterate(r, c, z, y, rp, rd, rNorm, cNorm, out);
     out.iterations = iteration;
-    const double gap = std::abs(out.primalObjective - out.dualObjective) / (1.0 + std::abs(out.primalObjective));
     if (options.trace) {
       fmt::print(stderr,
                  "ip {:3d}  primal {:.6e}  dual {:.6e}  rp {:.2e}  rd {:.2e}  gap {:.2e}  mu {:.2e}  delta {:.1e}\n",
@@ -249,35 +308,12 @@ InteriorPointResult solveStandardFormLp(const SparseMatrix& e, const Eigen::Vect
       out.message = fmt::format("normal matrix not positive definite at iteration {}", iteration);
       break;
     }
-    // K dy = rp + E (d rd - rc / s);  ds = rd - E^T dy;  dz = rc / s - d ds.
-    auto newton = [&](const Eigen::VectorXd& rcv) {
-      rhs = rp + e * (d.cwiseProduct(rd) - rcv.cwiseQuotient(s));
-      dy = cholesky.solve(rhs);
-      ds = rd - et * dy;
-      dz = rcv.cwiseQuotient(s) - d.cwiseProduct(ds);
-    };
-    rc = -z.cwiseProduct(s);
-    newton(rc);
-    const double alphaPAff = maxStep(z, dz), alphaDAff = maxStep(s, ds);
-    const double muAff = (z + alphaPAff * dz).dot(s + alphaDAff * ds) / nd;
-    const double sigma = std::pow(std::clamp(muAff / mu, 0.0, 1.0), 3);
-    dzAff = dz;
-    dsAff = ds;
-    rc.array() += sigma * mu - dzAff.cwiseProduct(dsAff).array();
-    newton(rc);
-    // Gondzio's centrality correctors (J. Gondzio, Comput. Optim. Appl. 6, 137 (1996)): aim at longer
-    // steps by pulling the complementarity products of the trial point into [0.1, 10] x the target;
-    // each costs one solve with the same factor (~3% of a factorisation here). Accepted while they
-    // lengthen the step.
-    double stepP = maxStep(z, dz), stepD = maxStep(s, ds);
-    const int correctors = centralityCorrectors(cholesky, e, et, z, s, d, sigma * mu, options.centralityCorrectors,
-                                                stepP, stepD, dz, ds, dy);
-    constexpr double kEta = 0.995;
-    const double alphaP = std::min(1.0, kEta * stepP);
-    const double alphaD = std::min(1.0, kEta * stepD);
+    const StepLengths step =
+        predictorCorrector(cholesky, e, et, z, s, d, rp, rd, mu, nd, options.centralityCorrectors, dir);
+    const double alphaP = step.alphaP, alphaD = step.alphaD;
     if (options.trace) {
-      fmt::print(stderr, "     alphaAff {:.3f} {:.3f}  sigma {:.2e}  correctors {}  alpha {:.3f} {:.3f}\n", alphaPAff,
-                 alphaDAff, sigma, correctors, alphaP, alphaD);
+      fmt::print(stderr, "     alphaAff {:.3f} {:.3f}  sigma {:.2e}  correctors {}  alpha {:.3f} {:.3f}\n",
+                 step.alphaPAff, step.alphaDAff, step.sigma, step.correctors, alphaP, alphaD);
     }
     z += alphaP * dz;
     y += alphaD * dy;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Crystallisation threshold of uniform-radius spheres (issue 8; seed 000 §10 row 16: partial
+# Crystallisation threshold of uniform-radius spheres (issue 8; Ogarko's thesis Figs. 3.2, 3.13: partial
 # crystallisation for omega <= 1.18, none for omega >= 1.22, omega_c = 1.20 +- 0.02). N = 4096, the
 # structure report's "slow" protocol: compress at rate 1e-3 to phi 0.56, hold 20,000 collisions per sphere
 # at fixed density (nucleation and growth), then the crystalline fraction p_c (q6/d6 over weighted-Delaunay

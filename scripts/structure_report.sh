@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Structure report (issue 8, seed 000 ch. 3.3.3-3.3.4 and ch. 4): makes N = 4096 states with `polydem jam`
+# Structure report (issue 8, Ogarko's thesis §3.3.3-3.3.4 and ch. 4): makes N = 4096 states with `polydem jam`
 # (dilute gas, dense liquid, slowly compressed crystal, fast-compressed glass, polydisperse power-law
 # n = 3 packing and, with US=1, uniform-radius omega = 1.1 / 1.3 packings), runs `polydem analyze` on
 # each (bond order p_c / q6 / Q6, channel-size histogram, S(k) and chi(k), rattlers) and plots with
@@ -161,8 +161,8 @@ fi
 cat summary.md
 fi
 
-# Polydisperse vs maximally equivalent tridisperse packings (seed 000 §3.3.4, L6912-6932 and Figs.
-# 3.14-3.16; spec hgrid-and-polydispersity.md §6.10): S(k) and chi(k) of a jammed packing against those of
+# Polydisperse vs maximally equivalent tridisperse packings (Ogarko's thesis §3.3.4, Figs.
+# 3.14-3.16; Ogarko & Luding, Soft Matter 9 (2013) 9530): S(k) and chi(k) of a jammed packing against those of
 # `jam --equivalent tri` (same <a>..<a^5>, Gauss quadrature). The seed: they agree at all k for
 # omega <= 3; for larger omega they differ at high k but stay similar at low k. A second polydisperse
 # packing with another seed (*_poly_b) gives the sample-to-sample noise floor for the same N.

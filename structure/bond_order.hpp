@@ -1,5 +1,6 @@
 #pragma once
-// Bond-orientational order and crystallinity (Ogarko's thesis §3.3.3, eqs. 3.56-3.57; spec §6.9):
+// Bond-orientational order and crystallinity (Ogarko's thesis §3.3.3, eqs. 3.56-3.57; Ogarko & Luding, Soft Matter 9
+// (2013) 9530):
 //   q_lm(i) = (1 / N_b(i)) sum_{j in nb(i)} Y_lm(r_ij / |r_ij|)                       (3.56)
 //   q_l(i)  = sqrt(4 pi / (2l + 1) sum_m |q_lm(i)|^2)        (Steinhardt's rotational invariant)
 //   q~_lm(i) = q_lm(i) / sqrt(sum_m |q_lm(i)|^2),  d_l(i, j) = Re sum_m q~_lm(i) conj(q~_lm(j))  (3.57)

@@ -1,6 +1,6 @@
 #pragma once
 // Channel sizes from neighbour triangles (Ogarko's thesis §4.2, i.e. Ogarko, Rivas & Luding, submitted
-// 2014; spec §7.1): for every particle i and
+// 2014, thesis §4.2): for every particle i and
 // every 3-subset {a, b, c} of its weighted-Delaunay neighbours (the central particle is not a vertex),
 // keep the triangle if it is acute, a^2 + b^2 > eps c^2 for every edge ordering with eps = 1 - 1e-12
 // (right angles kept; footnote §4.3), and take the circle in the triangle's plane that is
@@ -9,7 +9,7 @@
 // R_j / r_i, bin 0.01, normalised to unit area (§4.2). Peaks: 2/sqrt(3) - 1 (three touching equal
 // spheres), sqrt(2) - 1 (square), 1 (three touching neighbours coplanar with the centre at 120 deg).
 //
-// Apollonius solver (our reconstruction, spec §7.1 [rec]): in plane coordinates with centre 1 at the
+// Apollonius solver (our reconstruction of thesis §4.2): in plane coordinates with centre 1 at the
 // origin, |x - c_k| = R + r_k minus the same equation for k = 1 is linear in (x, R):
 //   2 c_k . x + 2 (r_k - r_1) R = |c_k|^2 - r_k^2 + r_1^2     (k = 2, 3)
 // so x = x0 + R x1 (the triangle is acute, hence not degenerate), and |x|^2 = (R + r_1)^2 gives

@@ -1,11 +1,10 @@
 #pragma once
-// Rattlers by speed (Ogarko's thesis §3.2, spec §6.8): during a Lubachevsky-Stillinger compression every
-// collision heats the system and the thermostat rescales all velocities by one factor, so spheres that
-// rarely collide (rattlers) end with almost no speed while jammed ones keep a scaled speed ~ 1.
-// Criterion: |v_i| / v_rms <= threshold, v_rms = sqrt(<|v|^2>) (the seed's normalisation is not stated,
-// spec §9 item 15; the rms speed makes the test independent of the thermostat's temperature). The
-// seed uses 1e-4 and finds the same rattlers for 1e-3 .. 1e-6 (§3.2). The geometric (contact
-// count) rattlers are edmd::analyseContacts().
+// Rattlers by speed (Ogarko's thesis §3.2, Fig. 3.10(b); Ogarko & Luding, Soft Matter 9 (2013) 9530): during a
+// Lubachevsky-Stillinger compression every collision heats the system and the thermostat rescales all velocities by one
+// factor, so spheres that rarely collide (rattlers) end with almost no speed while jammed ones keep a scaled speed ~ 1.
+// Criterion: |v_i| / v_rms <= threshold, v_rms = sqrt(<|v|^2>) (the thesis does not state its normalisation; the rms
+// speed makes the test independent of the thermostat's temperature). The seed uses 1e-4 and finds the same rattlers for
+// 1e-3 .. 1e-6 (§3.2). The geometric (contact count) rattlers are edmd::analyseContacts().
 #include <Eigen/Core>
 #include <vector>
 

@@ -3,14 +3,14 @@
 //
 //   quick     CI smoke run (< 1 min): every backend on small scenes, pair sets must agree (exit 1
 //             otherwise), plus small trel and model cases
-//   levels    seed 000 Fig. 2.5: slowdown factor against the number of HGrid levels L for uniform
+//   levels    Ogarko thesis Fig. 2.5: slowdown factor against the number of HGrid levels L for uniform
 //             radius and uniform volume, omega = 50, measured beside the cost models' predictions
 //   backends  time and memory per particle of every backend across size distributions and densities
 //   optimiser the cost model's choice against an exhaustive measured search over L and mode
 //   scaling   cost per particle against N (10^4..10^6) and against the size ratio, vs mono linked cell
-//   trel      seed 000 Fig. 2.6: DEM time relative to the monodisperse system against N (bi, uniform
+//   trel      Ogarko thesis Fig. 2.6: DEM time relative to the monodisperse system against N (bi, uniform
 //             volume omega 10 and 50), with the broad-phase / force / integration split
-//   model     seed 000 2.2.5: cost model against counted work and time for Top-Down, Bottom-Up, the
+//   model     Ogarko thesis 2.2.5: cost model against counted work and time for Top-Down, Bottom-Up, the
 //             constant-m rule and linked cell over power laws alpha = 0..-3, omega = 10, 100
 //   paper     levels + trel + model (the three seed reproductions)
 //   full      every suite

@@ -1,4 +1,4 @@
-// polydem bench, suite levels: seed 000 Fig. 2.5.
+// polydem bench, suite levels: Ogarko & Luding, Comput. Phys. Commun. 183 (2012) 931, Fig. 2.5 of the thesis.
 #include "apps/polydem/bench_common.hpp"
 #include "apps/polydem/summary.hpp"
 
@@ -97,7 +97,7 @@ int runLevels(const BenchOptions& opt, std::string& markdown, bool /*quick*/) {
   std::ofstream& csv = csvFile.stream();
   csv << kLevelsColumns << "\n";
   markdown +=
-      "## Slowdown factor against the number of levels (seed 000 Fig. 2.5)\n\n"
+      "## Slowdown factor against the number of levels (Ogarko & Luding 2012; Ogarko's thesis Fig. 2.5)\n\n"
       "Top-Down HGrid, cell sizes from the seed's ch. 2.1 appendix procedure (equal particles per cell on every\n"
       "level); time = one build + one findPairs (contact detection only; the seed timed whole DEM steps).\n"
       "Models: L (m + K) with K = 0.3 (ch. 2.1) and T/N of eq. 2.35 with K = 0.2 (ch. 2.2), snapped cells.\n\n"

@@ -1,4 +1,5 @@
-// polydem bench, suite model: seed 000 §2.2.5, predicted vs measured Top-Down / Bottom-Up across alpha and omega.
+// polydem bench, suite model: Ogarko's thesis §2.2.5, predicted vs measured Top-Down / Bottom-Up across alpha and
+// omega.
 #include "apps/polydem/bench_common.hpp"
 #include "apps/polydem/summary.hpp"
 
@@ -20,7 +21,7 @@ std::string plotModel(const std::filesystem::path& dir) {
   gp << "set datafile separator ','\nset terminal png size 900,600\nset output '" << (dir / "model.png").string()
      << "'\nset termoption noenhanced\nset logscale xy\nset xlabel 'model T/N (pair tests + K cell accesses)'\n"
      << "set ylabel 'measured us per particle'\nset key top left\n"
-     << "set title 'Cost model vs measurement, power laws (seed 000 2.2.5)'\nplot ";
+     << "set title 'Cost model vs measurement, power laws (Krijgsman et al. 2014, thesis 2.2.5)'\nplot ";
   const char* methodsList[] = {"top-down optimal", "bottom-up optimal", "top-down constant m", "linked cell"};
   for (int k = 0; k < 4; ++k) {
     gp << (k ? ", " : "") << "'" << (dir / "model.csv").string() << "' using (strcol(6) eq '" << methodsList[k]
@@ -47,7 +48,7 @@ int runModel(const BenchOptions& opt, std::string& markdown, bool quick) {
   csv << kModelColumns << "\n";
   markdown += fmt::format(
       "## Cost model against measurement: Top-Down, Bottom-Up and linked cell across alpha and omega "
-      "(seed 000 §2.2.5)\n\n"
+      "(Krijgsman, Ogarko & Luding 2014; Ogarko's thesis §2.2.5)\n\n"
       "Power-law size distributions f(r) ~ r^alpha on [r_min, omega r_min], N = {}, packing {}, skin 0.1 r_min,\n"
       "periodic. For each mode the optimiser's best L and sizes (eq. 2.35 minimised, K = {:.3f} from the\n"
       "calibration micro-benchmark); the seed's recommendation 3 (constant particles per cell, Top-Down) at its\n"

@@ -1,4 +1,4 @@
-// polydem bench, suite trel: seed 000 Fig. 2.6, DEM time relative to the monodisperse system against N.
+// polydem bench, suite trel: Ogarko's thesis Fig. 2.6, DEM time relative to the monodisperse system against N.
 #include "apps/polydem/bench_common.hpp"
 #include "apps/polydem/summary.hpp"
 
@@ -86,7 +86,7 @@ int runRelativeTime(const BenchOptions& opt, std::string& markdown, bool quick) 
   std::ofstream& csv = csvFile.stream();
   csv << kTrelColumns << "\n";
   markdown += fmt::format(
-      "## DEM time relative to the monodisperse system against N (seed 000 Fig. 2.6)\n\n"
+      "## DEM time relative to the monodisperse system against N (Ogarko & Luding 2012; Ogarko's thesis Fig. 2.6)\n\n"
       "Packing fraction {}, periodic (walls when the box cannot hold two cut-offs of the largest sphere). Every state\n"
       "(random sequential addition, event-driven compression where RSA stalls) is then relaxed by {:g} hard-sphere\n"
       "collisions per particle at fixed density, so all systems have the local structure of a fluid. Linear\n"

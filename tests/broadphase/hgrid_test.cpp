@@ -40,7 +40,7 @@ HGridConfig sizes(std::vector<double> s) { return HGridConfig{std::move(s), Cros
 constexpr std::array<std::array<double, 2>, 4> kStorage = {{{0.0, 0.0}, {0.0, 1000.0}, {1000.0, 0.0}, {8.0, 256.0}}};
 
 // ---------------------------------------------------------------------------------------------------
-// Worked example of Ogarko's thesis (Univ. Twente), Figs. 2.1/2.7 (digest §1.8): s = (3, 8), B at
+// Worked example of Ogarko's thesis (Univ. Twente), Fig. 2.1 and eq. 2.12: s = (3, 8), B at
 // (10.3, 14.4) with r = 4, C at (14, 14) with r = 1.5.
 
 TEST(HGridWorkedExample, SearchBoxesOfEquation212) {
@@ -52,7 +52,7 @@ TEST(HGridWorkedExample, SearchBoxesOfEquation212) {
   EXPECT_EQ(hgrid::insertionLevel(s, 1.0, 1.0 + 1e-9), 2);
 
   // TD search of B on level 1: beta = 4 + 1.5 = 5.5, cells (1, 2) .. (5, 6): 25 cells, not the
-  // caption's (1, 3) start (digest §9.1).
+  // Fig. 2.1 caption's (1, 3) start, which contradicts eq. 2.12.
   const double betaB = hgrid::searchHalfWidth(4.0, 0.0, 3.0);
   EXPECT_DOUBLE_EQ(betaB, 5.5);
   const hgrid::CellRange b = hgrid::searchBox(Eigen::Vector3d(10.3, 14.4, 0.5), betaB, Eigen::Vector3d::Constant(3.0));
@@ -407,7 +407,7 @@ TEST(HGridConfiguration, ConfiguratorIsCalledWhenNoExplicitSizes) {
 }
 
 // ---------------------------------------------------------------------------------------------------
-// Counters: the cost model's T_ca and T_cd per level (digest §2.3), recomputed independently.
+// Counters: the cost model's T_ca and T_cd per level (thesis eqs. 2.20-2.30), recomputed independently.
 
 struct LevelCount {
   std::uint64_t cellAccesses = 0, pairTests = 0;
@@ -536,7 +536,7 @@ TEST(HGridCounters, MatchThePerSphereCostModelDefinitions) {
     }
 }
 
-// Mean cross-level box width per axis is 2 beta / s' + 1 (digest §2.4 with the skin and snapping).
+// Mean cross-level box width per axis is 2 beta / s' + 1 (thesis eqs. 2.57-2.64 with the skin and snapping).
 TEST(HGridCounters, MeanSearchBoxWidthPerAxis) {
   std::mt19937_64 rng(3);
   const double s = 1.7, beta = 2.3;

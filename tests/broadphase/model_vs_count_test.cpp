@@ -1,5 +1,5 @@
 // The HGrid's counted work against the cost model of Ogarko's thesis (Univ. Twente), eqs. 2.20-2.35
-// (= Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357; digest §2.3, §4.4) on the
+// (= Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357; thesis Figs. 2.17-2.18) on the
 // model's own ensemble: centres uniformly random (no excluded volume), periodic box, cells snapped to
 // divide the box. Issue 3 asks for agreement within 5% on the seed's distributions; the optimiser's
 // cell sizes (K = 0.2) are used for each case, in both cross-level modes.

@@ -1,6 +1,7 @@
-// Equivalent bi- and tridisperse mixtures: Tables 3.1, 3.3, 3.4 of seed 000 (L5478-5517, L6468-6485,
-// L6607-6650), the US 5:8:5 rule (eqs. 3.39-3.40), the kurtosis family (eqs. 3.41-3.42), conditioning at
-// UV omega = 100 and log-normal sigma = 1, samples, degenerate inputs and integer realisation.
+// Equivalent bi- and tridisperse mixtures: Tables 3.1, 3.3, 3.4 of Ogarko's thesis (Ogarko & Luding,
+// J. Chem. Phys. 136 (2012) 124508; Soft Matter 9 (2013) 9530), the US 5:8:5 rule (eqs. 3.39-3.40), the kurtosis family
+// (eqs. 3.41-3.42), conditioning at UV omega = 100 and log-normal sigma = 1, samples, degenerate inputs and integer
+// realisation.
 #include "core/equivalent_mixture.hpp"
 
 #include <gtest/gtest.h>
@@ -32,7 +33,7 @@ struct Table31Row {
   double omega, o1, o2, rbi, n1, delta;
 };
 
-// Table 3.1 (L5478-5517) as printed: O1, O2 to 3 decimals, R_bi to 2 decimals (UV 100: 17.83), n1 to 3
+// Table 3.1 as printed: O1, O2 to 3 decimals, R_bi to 2 decimals (UV 100: 17.83), n1 to 3
 // decimals, delta to 2 decimals. n1 < 0 marks "not printed / 1/2 by symmetry".
 constexpr Table31Row kTable31[] = {
     {"uniform-radius", 1.2, 0.995, 0.992, 1.11, 0.5, 0.05},   {"uniform-radius", 1.4, 0.982, 0.973, 1.21, 0.5, 0.10},
@@ -90,7 +91,7 @@ struct TriRow {
   double param, n1, n2, d1, d2;
 };
 
-// Table 3.3 (UV, L6468-6485) and Table 3.4 (log-normal, L6607-6650); delta_i = n_i a_i/<a>.
+// Table 3.3 (UV) and Table 3.4 (log-normal); delta_i = n_i a_i/<a>.
 constexpr TriRow kTable33[] = {
     {2, 0.1427, 0.4054, 0.1988, 0.4337},    {3, 0.08923, 0.3544, 0.1593, 0.4181}, {4, 0.06189, 0.3118, 0.1345, 0.4034},
     {5, 0.04582, 0.2777, 0.1173, 0.3902},   {6, 0.03548, 0.2502, 0.1044, 0.3785}, {8, 0.02331, 0.2086, 0.08630, 0.3584},
@@ -174,7 +175,7 @@ TEST(EquivalentMixture, KurtosisFamily) {
     EXPECT_NEAR(mix.numberFraction[0] * mix.radius[0] / us.mean(), (6 + std::sqrt(3 * beta2)) / (12 * beta2), 1e-14);
     EXPECT_NEAR(mix.numberFraction[1] * mix.radius[1] / us.mean(), (beta2 - 1) / beta2, 1e-14);
     // Matched: the central moments M^c_2, M^c_3, M^c_5 of US omega = 3 (the seed's "scaled moments k = 2, 3, 5",
-    // L5800-5803: the raw M_4, M_5 contain M^c_4 and so cannot stay fixed); M^c_4 gives the requested kurtosis.
+    // thesis §3.2: the raw M_4, M_5 contain M^c_4 and so cannot stay fixed); M^c_4 gives the requested kurtosis.
     std::array<double, 6> raw{};
     for (int k = 0; k < 6; ++k) raw[static_cast<std::size_t>(k)] = mixtureMoment(mix, k);
     const Moments mm = momentsFromRaw(raw);

@@ -1,6 +1,6 @@
-// Moments of size distributions: closed forms of seed 000 (eqs. 3.23-3.25, 3.37, 3.44), sample moments
+// Moments of size distributions: closed forms of Ogarko's thesis (eqs. 3.23-3.25, 3.37, 3.44), sample moments
 // against a rigorous systematic-sampling bound, bounds O1^2 <= O2 <= O1, and bad input
-// (shared/spec/hgrid-and-polydispersity.md §3.2).
+// (thesis §3.1.2, §3.2).
 #include "core/moments.hpp"
 
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // Size distributions: analytic moments against independent quadrature of the density, CDF/quantile
 // round trips, sample moments against a rigorous stratification bound, and the moment ratios O1, O2 of
-// seed 000 (eqs. 3.23-3.25 and Table 3.1; shared/spec/hgrid-and-polydispersity.md §3.2, §6.4).
+// Ogarko's thesis (eqs. 3.23-3.25 and Table 3.1; Ogarko & Luding, J. Chem. Phys. 136 (2012) 124508).
 #include "core/size_distribution.hpp"
 
 #include <gtest/gtest.h>

@@ -1,5 +1,5 @@
-// Fluid equations of state, free-volume law and jamming-density fits of seed 000 ch. 3 (digest
-// shared/spec/hgrid-and-polydispersity.md §6.3 check values [V], §6.6 fit tables [V]).
+// Fluid equations of state, free-volume law and jamming-density fits of Ogarko's thesis ch. 3 (Ogarko &
+// Luding, J. Chem. Phys. 136 (2012) 124508: §3.1.2 check values, eqs. 3.15-3.16; eqs. 3.52, 3.55).
 #include "eos/eos.hpp"
 
 #include <gtest/gtest.h>
@@ -51,7 +51,7 @@ TEST(Eos, PolydisperseIdentities) {
     EXPECT_NEAR(zOL(nu, r), 0.5 * (zSCS(nu, r) + zBCSK(nu, r)), 1e-12);
     // Polydispersity lowers the pressure at fixed nu (O1, O2 < 1).
     EXPECT_LT(zBMCSL(nu, r), zBMCSL(nu, {}));
-    // The equivalent bidisperse mixture has the same O1, O2, hence the same fluid Z (L5337-5344).
+    // The equivalent bidisperse mixture has the same O1, O2, hence the same fluid Z (thesis §3.1 appendix).
     const Mixture bi = equivalentBidisperse(uv);
     std::array<double, 6> raw{};
     for (int k = 0; k < 6; ++k) {

@@ -119,7 +119,7 @@ TEST(ChannelSizes, CentralParticleRadiusScalesTheStatistic) {
 
 TEST(ChannelSizes, FccHasDiscreteBraggLikePeaks) {
   // Perfect FCC of touching spheres with its 12-neighbour shell: every particle sees the same acute
-  // triangles, so the histogram is a set of delta peaks (seed 000 L7356-7370: "Bragg-like"): 8 triangles
+  // triangles, so the histogram is a set of delta peaks (Ogarko's thesis §4.4: "Bragg-like"): 8 triangles
   // of mutually touching neighbours (2/sqrt(3) - 1), 24 squares (sqrt(2) - 1), 68 channels at exactly 1
   // (coplanar triples in the four close-packed planes through the centre, and the like), and three
   // further values 0.73, 0.80, 0.89.
@@ -138,7 +138,7 @@ TEST(ChannelSizes, FccHasDiscreteBraggLikePeaks) {
 
 TEST(ChannelSizes, DiluteGasIsGaussianAroundSixteen) {
   ASSERT_TRUE(POLYDEM_WITH_CGAL) << "built without CGAL (POLYDEM_WITH_CGAL=OFF): no Delaunay neighbours";
-  // Seed 000 Fig. 4.2: ideal gas at nu = 0.0014, mean R_j / r_i ~ 15.9, width ~ 4 (spec §10 row 18, +-5%).
+  // Ogarko's thesis Fig. 4.2: ideal gas at nu = 0.0014, mean R_j / r_i ~ 15.9, width ~ 4 (+-5%).
   const int n = 4096;
   const double r = 0.5, phi = 0.0014;
   const double length = std::cbrt(n * 4.0 / 3.0 * kPi * r * r * r / phi);

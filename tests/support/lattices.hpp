@@ -1,5 +1,5 @@
 #pragma once
-// Lattice packings for the jamming tests (seed 001 Table 4.1): m^3 unit cells of FCC (4 spheres each)
+// Lattice packings for the jamming tests (Donev 2006, Table 4.1): m^3 unit cells of FCC (4 spheres each)
 // or simple cubic (1), spheres of radius 1 - gap on the sites of a touching lattice, periodic cube.
 #include <Eigen/Core>
 #include <cmath>
