@@ -40,9 +40,12 @@ PressureJammingResult jamToPressure(FireMinimiser& minimiser, const PressureJamm
   // p ~ (phi - phi_J)^e near jamming: the false position works on p^(1/e), which is linear there.
   const bool hertz = minimiser.settings().contact.normal == contact::NormalModel::Hertz;
   auto linearised = [&](double p) { return hertz ? std::pow(p, 2.0 / 3.0) : p; };
-  double lo = 0.0, pLo = 0.0, hi = 0.0, pHi = 0.0;
+  double lo = 0.0, hi = 0.0;
   double step = settings.initialStep;
   std::string action = "start";
+  int lastDirection = 0;
+  bool reversed = false;
+  double lastPhi = 0.0, lastPressure = 0.0;
 
   for (int s = 0;; ++s) {
     const FireResult fire = minimiser.minimise(fireProgress, stopOnInterrupt);
@@ -69,43 +72,42 @@ PressureJammingResult jamToPressure(FireMinimiser& minimiser, const PressureJamm
       result.stopReason = "target reached";
       break;
     }
-    if (p < target) {
+    const int direction = p < target ? 1 : -1;  // compress below the target, decompress above
+    if (direction > 0) {
       lo = phi;
-      pLo = p;
     } else {
       hi = phi;
-      pHi = p;
     }
     if (result.steps >= settings.maxSteps) {
       result.stopReason = fmt::format("step budget: {} minimisations", settings.maxSteps);
       break;
     }
-    double next = phi;
-    if (hi == 0.0) {
-      next = phi * (1.0 + step);
+    // O'Hern et al.'s bisection, local: the step halves at each reversal of direction (and doubles, up to
+    // maxStep, until the first one). Each state grows from the previous one, so the protocol follows the
+    // configuration it has (a state left far above may unjam on decompression and jam again elsewhere, which
+    // makes a global bracket stale).
+    if (lastDirection != 0 && direction != lastDirection) {
+      reversed = true;
+      step *= 0.5;
+    } else if (!reversed && lastDirection != 0) {
       step = std::min(2.0 * step, settings.maxStep);
-      action = "compress";
-    } else if (lo == 0.0) {
-      next = phi * (1.0 - step);
-      step = std::min(2.0 * step, settings.maxStep);
-      action = "decompress";
-    } else {
-      if ((hi - lo) / hi < settings.minBracket) {
-        result.stopReason =
-            fmt::format("bracket below round-off: phi in [{:.15g}, {:.15g}] with p/k {:.4g} and {:.4g}, target {:.4g}",
-                        lo, hi, pLo, pHi, target);
-        break;
-      }
-      // Below jamming (p ~ 0: below 1e-3 target) phi_J lies anywhere in the bracket: bisect. Both jammed:
-      // false position.
-      double frac = 0.5;
-      if (pLo > 1e-3 * target) {
-        frac = (linearised(target) - linearised(pLo)) / (linearised(pHi) - linearised(pLo));
-        frac = std::clamp(frac, 0.1, 0.9);
-      }
-      next = lo + frac * (hi - lo);
-      action = next > phi ? "compress" : "decompress";
     }
+    if (step < settings.minBracket) {
+      result.stopReason = fmt::format(
+          "step below round-off: phi {:.15g} at p/k {:.4g}, relative step {:.3g}, target {:.4g}", phi, p, step, target);
+      break;
+    }
+    double next = phi * (1.0 + direction * step);
+    // Two jammed states in a row: the secant on p^(1/e), linear in phi near jamming, within the step.
+    if (lastPressure > 1e-3 * target && p > 1e-3 * target && lastPressure != p) {
+      const double secant =
+          phi + (linearised(target) - linearised(p)) * (phi - lastPhi) / (linearised(p) - linearised(lastPressure));
+      if (std::abs(secant - phi) <= step * phi) next = secant;
+    }
+    action = next > phi ? "compress" : "decompress";
+    lastDirection = direction;
+    lastPhi = phi;
+    lastPressure = p;
     minimiser.scaleRadii(std::cbrt(next / phi));
   }
   result.lowPhi = lo;

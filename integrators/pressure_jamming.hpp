@@ -2,11 +2,12 @@
 // Pressure-controlled jamming of frictionless soft spheres (O'Hern, Silbert, Liu & Nagel, Phys. Rev. E 68,
 // 011306 (2003), section II): grow (or shrink) every radius by a common factor, minimise the energy with
 // FIRE after each change, and home in on the packing fraction at which the minimised reduced pressure p/k
-// equals a target (down to 1e-7 and below). Far from the target the step in phi doubles each time (up to
-// maxStep), in the direction of the target; once the target is bracketed by a state below and one above,
-// each new phi is the false-position point of the bracket on p^(1/e) (e = 1 harmonic, 3/2 Hertz, which is
-// linear in phi - phi_J near jamming: p ~ (phi - phi_J)^e), kept inside the middle 80% of the bracket
-// (so that each step at least shrinks it to 90%, as in bisection, and a curved p(phi) cannot stall it).
+// equals a target (down to 1e-7 and below). Each state grows from the previous one: compress while p is
+// below the target, decompress while above, halving the relative step at each reversal (the step doubles, up
+// to maxStep, until the first reversal). Two jammed states in a row give the secant on p^(1/e) (e = 1
+// harmonic, 3/2 Hertz: p ~ (phi - phi_J)^e, so p^(1/e) is linear in phi near jamming), taken when it lies
+// within the current step. A global bisection bracket is not used: a state far above unjams on decompression
+// and jams again at another phi, so an old upper end becomes stale (seen in tests at N = 256).
 // Reached when |p - target| <= pressureTolerance x target.
 //
 // phi_J is the packing fraction at the final state (at p/k = target it differs from the p -> 0 limit by
@@ -45,12 +46,12 @@ struct JammingStep {
 
 struct PressureJammingResult {
   bool reached = false;
-  std::string stopReason;  ///< "target reached", "not converged: ...", "step budget", "bracket below round-off", ...
+  std::string stopReason;  ///< "target reached", "not converged: ...", "step budget", "step below round-off", ...
   int steps = 0;
   std::int64_t fireIterations = 0;  ///< FIRE steps over every minimisation
   double packingFraction = 0.0;     ///< phi at the final state: phi_J at the target pressure
   double reducedPressure = 0.0;
-  double lowPhi = 0.0, highPhi = 0.0;  ///< the bracket (0 = no such side found)
+  double lowPhi = 0.0, highPhi = 0.0;  ///< the last phi below and above the target (0 = none)
   FireResult lastFire;
 };
 

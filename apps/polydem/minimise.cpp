@@ -53,6 +53,7 @@ struct MinimiseOptions {
   int threads = 1;
   // pressure protocol
   double targetPressure = 0.0;
+  double deltaPhi = 0.0;
   double pressureTolerance = 0.05;
   double initialStep = 1e-3;
   double maxStep = 0.02;
@@ -118,6 +119,10 @@ void addOptions(CLI::App* cmd, MinimiseOptions* o) {
                   "pressure-controlled jamming: grow/shrink the radii, minimising each time, to this reduced "
                   "pressure p/k in (0, 1) (e.g. 1e-6)")
       ->check(finiteOpen(0.0, 1.0));
+  cmd->add_option("--delta-phi", o->deltaPhi,
+                  "first change the packing fraction by this (grow or shrink every radius by a common factor), then "
+                  "minimise: e.g. a jammed packing compressed by phi - phi_J")
+      ->check(finiteIn(-0.5, 0.5));
   cmd->add_option("--pressure-tolerance", o->pressureTolerance, "relative tolerance on the target pressure")
       ->check(finiteOpen(0.0, 1.0))
       ->capture_default_str();
@@ -284,6 +289,9 @@ int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
   for (const char* name : {"--pressure-tolerance", "--initial-step", "--max-step", "--max-steps"}) {
     if (cmd.count(name) && !protocol) throw ConfigError(fmt::format("{} needs --target-pressure", name));
   }
+  if (cmd.count("--delta-phi") && protocol) {
+    throw ConfigError("--delta-phi cannot be combined with --target-pressure (the protocol sets phi itself)");
+  }
   if (cmd.count("--stiffness-scaling") && o.law == "hertz") {
     throw ConfigError("--stiffness-scaling applies to --law linear only (Hertz scales with sqrt(R_eff) itself)");
   }
@@ -306,6 +314,15 @@ int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
   fmt::print("broad phase             {} (skin {:.4g})\n", m.neighbours().backend().describe(), m.neighbours().skin());
   printState("initial", m.measure());
 
+  if (o.deltaPhi != 0.0) {
+    const double phi = m.packingFraction();
+    if (!(phi + o.deltaPhi > 0.0 && phi + o.deltaPhi < 1.0)) {
+      throw ConfigError(
+          fmt::format("--delta-phi {:g}: phi {:.6f} + {:g} is outside (0, 1)", o.deltaPhi, phi, o.deltaPhi));
+    }
+    m.scaleRadii(std::cbrt((phi + o.deltaPhi) / phi));
+    fmt::print("delta phi               {:g}: phi {:.10f} -> {:.10f}\n", o.deltaPhi, phi, m.packingFraction());
+  }
   Stopwatch clock;
   double lastPrint = 0.0;
   auto fireProgress = [&](const integrators::MinimiserReport& r) {
@@ -361,8 +378,10 @@ int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
   fmt::print("rattlers                {} of {} ({:.4f}; fewer than 4 contacts, removed recursively)\n",
              net.particles - net.backbone, net.particles, net.rattlerFraction());
   if (net.backbone > 0) {
-    fmt::print("z (non-rattlers)        {:.6f}; isostatic excess {} contacts\n", net.backboneCoordination(),
-               net.isostaticExcess());
+    fmt::print(
+        "z (non-rattlers)        {:.6f}; isostatic excess {} contacts, z - z_iso {:.6f} (z_iso = 2 (3N' - {}) / N')\n",
+        net.backboneCoordination(), net.isostaticExcess(),
+        2.0 * static_cast<double>(net.isostaticExcess()) / static_cast<double>(net.backbone), net.periodicAxes - 1);
   } else {
     fmt::print("z (non-rattlers)        undefined (every sphere a rattler: not jammed)\n");
   }
