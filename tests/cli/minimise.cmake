@@ -44,3 +44,6 @@ set_tests_properties(cli_minimise_nan_options PROPERTIES TIMEOUT 60 LABELS "cli;
 add_test(NAME cli_minimise_from_jam_to_analyze
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_analyze.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_minimise_from_jam_to_analyze PROPERTIES TIMEOUT 120 LABELS "cli;minimise")
+add_test(NAME cli_minimise_threads_identical
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_threads.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
+set_tests_properties(cli_minimise_threads_identical PROPERTIES TIMEOUT 60 LABELS "cli;minimise")
