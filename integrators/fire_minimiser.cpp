@@ -288,6 +288,7 @@ MinimiserReport FireMinimiser::measure() const {
       forceSum += fn;
       virial += fn * dist;
       rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / std::min(r[i], r[j]));
+      rep.maxOverlap = std::max(rep.maxOverlap, overlap);
     }
   }
   for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
@@ -303,6 +304,7 @@ MinimiserReport FireMinimiser::measure() const {
     forceSum += fn;
     virial += fn * gap;  // the lever from the centre to the wall
     rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / r[i]);
+    rep.maxOverlap = std::max(rep.maxOverlap, overlap);
   }
   const std::size_t all = rep.contacts + rep.wallContacts;
   rep.meanContactForce = all > 0 ? forceSum / static_cast<double>(all) : 0.0;
@@ -342,6 +344,8 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
   double alpha = fs.alphaStart;
   std::int64_t downhill = 0, uphill = 0;
   double knownScale = std::max(start.meanContactForce, fs.referenceForce);
+  constexpr std::int64_t kMeasureEvery = 256;
+  const double overlapFloor = 64.0 * std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff();
 
   auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
     res.converged = converged;
@@ -376,9 +380,10 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       throw SimulationError(fmt::format("minimiser: non-finite forces or velocities at FIRE step {}", it));
     }
     const double fmax = std::sqrt(fmaxSq);
-    if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0) {
+    if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
       const MinimiserReport now = measure();
       if (now.contacts + now.wallContacts == 0) return finish(true, "no contacts", it, &now);
+      if (now.maxOverlap <= overlapFloor) return finish(true, "overlaps at round-off", it, &now);
       knownScale = std::max(now.meanContactForce, fs.referenceForce);
       if (fmax <= fs.forceTolerance * knownScale) return finish(true, "converged", it, &now);
     }

@@ -47,3 +47,5 @@ set_tests_properties(cli_minimise_from_jam_to_analyze PROPERTIES TIMEOUT 120 LAB
 add_test(NAME cli_minimise_threads_identical
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_threads.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_minimise_threads_identical PROPERTIES TIMEOUT 60 LABELS "cli;minimise")
+polydem_cli_test(NAME minimise_jam_soft_hertz COMMAND minimise -n 128 --phi0 0.6 --law hertz --target-pressure 1e-4 --progress 0
+                 EXIT 0 PASS "result +target reached" LABELS minimise)
