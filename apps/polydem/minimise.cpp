@@ -372,6 +372,8 @@ int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
              m.forceEvaluations(), static_cast<double>(m.memoryBytes()) / 1e6);
 
   const jamming::ContactNetwork net = integrators::softContactNetwork(m, "hgrid-td");
+  if (!out.ok)
+    fmt::print("note                    not at equilibrium: the contact statistics describe the state as it is\n");
   fmt::print("contacts                {} (overlapping pairs) + {} wall\n", net.contacts.size(),
              net.wallContacts.size());
   fmt::print("z (all spheres)         {:.6f}\n", net.meanCoordination());

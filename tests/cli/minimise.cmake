@@ -49,3 +49,6 @@ add_test(NAME cli_minimise_threads_identical
 set_tests_properties(cli_minimise_threads_identical PROPERTIES TIMEOUT 60 LABELS "cli;minimise")
 polydem_cli_test(NAME minimise_jam_soft_hertz COMMAND minimise -n 128 --phi0 0.6 --law hertz --target-pressure 1e-4 --progress 0
                  EXIT 0 PASS "result +target reached" LABELS minimise)
+add_test(NAME cli_minimise_interrupt
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_interrupt.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
+set_tests_properties(cli_minimise_interrupt PROPERTIES TIMEOUT 60 LABELS "cli;minimise")
