@@ -1,0 +1,460 @@
+#include "integrators/fire_minimiser.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "broadphase/registry.hpp"
+#include "core/errors.hpp"
+#include "core/interrupt.hpp"
+#include "integrators/dem_simulation.hpp"  // mortonOrder
+#include "polydem/config.hpp"
+
+namespace polydem::integrators {
+
+namespace {
+
+double resolveSkin(double skin, const ParticleStore& particles) {
+  if (skin >= 0.0) return skin;
+  if (particles.count() == 0) return 0.0;  // the constructor reports the empty store
+  return 0.2 * particles.radius().minCoeff();
+}
+
+void requirePositive(double value, const char* key) {
+  if (!(value > 0.0 && std::isfinite(value))) throw ConfigError(fmt::format("{} must be > 0, got {}", key, value));
+}
+
+}  // namespace
+
+void FireSettings::validate() const {
+  requirePositive(forceTolerance, "minimise.force_tolerance");
+  if (!(referenceForce >= 0.0 && std::isfinite(referenceForce))) {
+    throw ConfigError(fmt::format("minimise.reference_force must be >= 0, got {}", referenceForce));
+  }
+  if (maxIterations < 1) throw ConfigError(fmt::format("minimise.max_iterations must be >= 1, got {}", maxIterations));
+  requirePositive(dt, "minimise.dt");
+  if (!(dtMaxFactor >= 1.0 && std::isfinite(dtMaxFactor))) {
+    throw ConfigError(fmt::format("minimise.dt_max_factor must be >= 1, got {}", dtMaxFactor));
+  }
+  if (!(dtMinFactor > 0.0 && dtMinFactor <= 1.0)) {
+    throw ConfigError(fmt::format("minimise.dt_min_factor must be in (0, 1], got {}", dtMinFactor));
+  }
+  if (nDelay < 0) throw ConfigError(fmt::format("minimise.n_delay must be >= 0, got {}", nDelay));
+  if (!(fInc > 1.0 && std::isfinite(fInc))) throw ConfigError(fmt::format("minimise.f_inc must be > 1, got {}", fInc));
+  if (!(fDec > 0.0 && fDec < 1.0)) throw ConfigError(fmt::format("minimise.f_dec must be in (0, 1), got {}", fDec));
+  if (!(alphaStart > 0.0 && alphaStart < 1.0)) {
+    throw ConfigError(fmt::format("minimise.alpha_start must be in (0, 1), got {}", alphaStart));
+  }
+  if (!(fAlpha > 0.0 && fAlpha <= 1.0)) {
+    throw ConfigError(fmt::format("minimise.f_alpha must be in (0, 1], got {}", fAlpha));
+  }
+  if (maxUphill < 1) throw ConfigError(fmt::format("minimise.max_uphill must be >= 1, got {}", maxUphill));
+  if (progressInterval < 0) {
+    throw ConfigError(fmt::format("minimise.progress_interval must be >= 0, got {}", progressInterval));
+  }
+}
+
+FireMinimiser::FireMinimiser(ParticleStore particles, const Box& box, const MinimiserSettings& settings)
+    : particles_(std::move(particles)),
+      box_(box),
+      settings_(settings),
+      model_(settings.contact),
+      verlet_(broadphase::makeBroadPhase(settings.broadPhase), resolveSkin(settings.skin, particles_)) {
+  settings_.fire.validate();
+  const contact::ContactParameters& p = model_.parameters();
+  if (p.usesFriction()) {
+    throw ConfigError(fmt::format(
+        "contact.friction = {:g}: the minimiser is for frictionless spheres (tangential springs have no energy "
+        "minimum to find); use friction 0",
+        p.friction));
+  }
+  if (p.restitution != 1.0) {
+    throw ConfigError(
+        fmt::format("contact.restitution = {:g}: the minimiser uses no dashpot (FIRE removes the energy itself); use 1",
+                    p.restitution));
+  }
+  if (settings_.threads < 1) throw ConfigError(fmt::format("run.threads must be >= 1, got {}", settings_.threads));
+  if (settings_.threads > 1 && !POLYDEM_WITH_OPENMP) {
+    throw ConfigError(fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON", settings_.threads));
+  }
+  verlet_.setBlocks(settings_.threads);
+  settings_.skin = verlet_.skin();
+
+  const Index n = particles_.count();
+  if (n == 0) throw ConfigError("no particles to minimise");
+  Eigen::Matrix3Xd& x = particles_.position();
+  double radiusSum = 0.0;
+  for (Index i = 0; i < n; ++i) {
+    const Index id = particles_.id()[static_cast<std::size_t>(i)];
+    const double r = particles_.radius()[i];
+    if (!(r > 0.0 && std::isfinite(r))) throw ConfigError(fmt::format("particle id {}: radius {} must be > 0", id, r));
+    if (!x.col(i).allFinite()) throw ConfigError(fmt::format("particle id {}: non-finite position", id));
+    x.col(i) = box_.wrap(x.col(i));
+    if (!box_.contains(x.col(i))) {
+      throw ConfigError(fmt::format("particle id {}: centre ({}, {}, {}) outside the walled box {}", id, x(0, i),
+                                    x(1, i), x(2, i), box_.describe()));
+    }
+    radiusSum += r;
+  }
+  if (settings_.spatialSort) particles_.reorder(mortonOrder(particles_.position(), box_));
+  particles_.velocity().setZero();
+
+  contact::KernelFlags flags;
+  flags.walls = box_.hasWalls();
+  kernel_ = contact::selectForceKernel(model_, flags);
+  pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  if (p.normal == contact::NormalModel::Hertz || p.scaling == contact::StiffnessScaling::Radius) {
+    pressureUnit_ = p.stiffness;
+  } else {
+    pressureUnit_ = p.stiffness / (2.0 * radiusSum / static_cast<double>(n));
+  }
+  rebuild();
+  computeForces();
+}
+
+contact::ForceContext FireMinimiser::context() const {
+  auto& self = const_cast<FireMinimiser&>(*this);  // the kernel writes forces; measure() only reads
+  contact::ForceContext c;
+  c.count = particles_.count();
+  c.position = particles_.position().data();
+  c.velocityHalf = particles_.velocity().data();
+  c.velocity = particles_.velocity().data();  // read only by dashpots, which are off (e = 1)
+  c.radius = particles_.radius().data();
+  c.inverseMass = particles_.inverseMass().data();
+  c.force = self.particles_.force().data();
+  c.list = &verlet_.list();
+  c.pairHistory = &self.pairHistory_;
+  c.wallHistory = &self.wallHistory_;
+  for (int k = 0; k < 3; ++k) {
+    c.length[k] = box_.length(k);
+    c.halfLength[k] = box_.periodic(k) ? 0.5 * box_.length(k) : std::numeric_limits<double>::infinity();
+  }
+  c.threads = settings_.threads;
+  c.crossScratch = self.crossScratch_.data();
+  c.crossTouching = self.crossTouching_.data();
+  return c;
+}
+
+void FireMinimiser::computeForces() {
+  kernel_.run(model_, context());
+  ++forceEvaluations_;
+}
+
+double FireMinimiser::pairStiffness(double ri, double rj) const {
+  const double reff = ri * rj / (ri + rj);
+  const contact::ContactParameters& p = model_.parameters();
+  if (p.normal == contact::NormalModel::Hertz) {
+    // dF/d(delta) = 3/2 K sqrt(R_eff delta) at delta = reference x R_eff.
+    return 1.5 * p.stiffness * reff * std::sqrt(hertzReferenceOverlap_);
+  }
+  return contact::LinearNormal::pairStiffness(model_.linearParams(), reff);
+}
+
+void FireMinimiser::updateMasses() {
+  // m_i = k_ii + sum_j k_ij over the candidates of i (and its walls): see the header (Jacobi preconditioning).
+  Eigen::VectorXd& im = particles_.inverseMass();
+  const Eigen::VectorXd& r = particles_.radius();
+  const Index n = particles_.count();
+  const contact::ContactList& list = verlet_.list();
+  for (Index i = 0; i < n; ++i) im[i] = pairStiffness(r[i], r[i]);
+  for (Index i = 0; i < n; ++i) {
+    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
+      const Index j = list.neighbour[c];
+      const double k = pairStiffness(r[i], r[j]);
+      im[i] += k;
+      im[j] += k;
+    }
+  }
+  for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
+    const Index i = list.wallParticle[c];
+    im[i] += 2.0 * pairStiffness(r[i], r[i]);  // R_eff = r_i against a wall
+  }
+  for (Index i = 0; i < n; ++i) im[i] = 1.0 / im[i];
+}
+
+void FireMinimiser::rebuild() {
+  Eigen::Matrix3Xd& x = particles_.position();
+  const Index n = particles_.count();
+  for (Index i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      double& xk = x(k, i);
+      const double L = box_.length(k);
+      if (!std::isfinite(xk)) {
+        throw SimulationError(fmt::format("minimiser: particle id {} reached a non-finite position",
+                                          particles_.id()[static_cast<std::size_t>(i)]));
+      }
+      if (box_.periodic(k)) {
+        if (xk < 0.0 || xk >= L) {
+          xk -= L * std::floor(xk / L);
+          if (xk >= L) xk = 0.0;
+        }
+      } else if (xk < 0.0 || xk > L) {
+        throw SimulationError(fmt::format(
+            "minimiser: particle id {} left the walled box along {} (a step too large for the wall stiffness: "
+            "reduce minimise.dt)",
+            particles_.id()[static_cast<std::size_t>(i)], "xyz"[k]));
+      }
+    }
+  }
+  verlet_.build(particles_.spheres(), box_);
+  growthSinceBuild_ = 0.0;
+  if (settings_.threads > 1) {
+    crossScratch_.resize(contact::crossScratchSize(verlet_.list().crossCount(), false));
+    crossTouching_.resize(verlet_.list().crossCount());
+  }
+  updateMasses();
+  ++rebuildsInCall_;
+}
+
+void FireMinimiser::scaleRadii(double factor) {
+  if (!(factor > 0.0 && std::isfinite(factor))) {
+    throw ConfigError(fmt::format("scaleRadii: factor must be > 0, got {}", factor));
+  }
+  if (factor > 1.0) growthSinceBuild_ += (factor - 1.0) * particles_.radius().maxCoeff();
+  particles_.radius() *= factor;
+  particles_.velocity().setZero();
+  if (growthSinceBuild_ > 0.5 * verlet_.skin()) {
+    rebuild();
+  } else {
+    updateMasses();  // stiffnesses scale with the radii
+  }
+  computeForces();
+}
+
+Eigen::Matrix3Xd FireMinimiser::wrappedPositions() const {
+  Eigen::Matrix3Xd x = particles_.position();
+  for (Index i = 0; i < particles_.count(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (!box_.periodic(k)) continue;
+      const double L = box_.length(k);
+      double& xk = x(k, i);
+      if (xk < 0.0 || xk >= L) {
+        xk -= L * std::floor(xk / L);
+        if (xk >= L) xk = 0.0;
+      }
+    }
+  }
+  return x;
+}
+
+double FireMinimiser::packingFraction() const {
+  return 4.0 / 3.0 * kPi * particles_.radius().array().cube().sum() / box_.volume();
+}
+
+double FireMinimiser::contactForceAtPressure(double reducedPressure) const {
+  const double meanDiameter = 2.0 * particles_.radius().mean();
+  return reducedPressure * pressureUnit_ * box_.volume() / (static_cast<double>(particles_.count()) * meanDiameter);
+}
+
+MinimiserReport FireMinimiser::measure() const {
+  MinimiserReport rep;
+  const contact::ForceContext ctx = context();
+  const contact::ContactList& list = verlet_.list();
+  const bool hertz = model_.parameters().normal == contact::NormalModel::Hertz;
+  const auto lin = model_.linearParams();
+  const auto hz = model_.hertzParams();
+  auto normalForce = [&](double overlap, double reff) {
+    return hertz ? contact::HertzNormal::force(hz, overlap, 0.0, 1.0, reff).force
+                 : contact::LinearNormal::force(lin, overlap, 0.0, 1.0, reff).force;
+  };
+  double forceSum = 0.0, virial = 0.0;
+  const double* x = ctx.position;
+  const double* r = ctx.radius;
+  for (Index i = 0; i < ctx.count; ++i) {
+    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
+      const Index j = list.neighbour[c];
+      double dsq = 0.0;
+      for (int k = 0; k < 3; ++k) {  // the kernel's minimum image
+        double d = x[3 * i + k] - x[3 * j + k];
+        if (d > ctx.halfLength[k]) {
+          d -= ctx.length[k];
+        } else if (d < -ctx.halfLength[k]) {
+          d += ctx.length[k];
+        }
+        dsq += d * d;
+      }
+      const double sumR = r[i] + r[j];
+      if (dsq >= sumR * sumR) continue;
+      const double dist = std::sqrt(dsq);
+      const double overlap = sumR - dist;
+      const double reff = r[i] * r[j] / sumR;
+      const double fn = normalForce(overlap, reff);
+      ++rep.contacts;
+      rep.energy += model_.normalEnergy(overlap, reff);
+      forceSum += fn;
+      virial += fn * dist;
+      rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / std::min(r[i], r[j]));
+      rep.maxOverlap = std::max(rep.maxOverlap, overlap);
+    }
+  }
+  for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
+    const Index i = list.wallParticle[c];
+    const int face = list.wallFace[c];
+    const int axis = face >> 1;
+    const double gap = (face & 1) ? ctx.length[axis] - x[3 * i + axis] : x[3 * i + axis];
+    const double overlap = r[i] - gap;
+    if (!(overlap > 0.0)) continue;
+    const double fn = normalForce(overlap, r[i]);
+    ++rep.wallContacts;
+    rep.energy += model_.normalEnergy(overlap, r[i]);
+    forceSum += fn;
+    virial += fn * gap;  // the lever from the centre to the wall
+    rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / r[i]);
+    rep.maxOverlap = std::max(rep.maxOverlap, overlap);
+  }
+  const std::size_t all = rep.contacts + rep.wallContacts;
+  rep.meanContactForce = all > 0 ? forceSum / static_cast<double>(all) : 0.0;
+  rep.pressure = virial / (3.0 * box_.volume());
+  rep.reducedPressure = rep.pressure / pressureUnit_;
+  rep.maxForce = std::sqrt(particles_.force().colwise().squaredNorm().maxCoeff());
+  const double scale = std::max(rep.meanContactForce, settings_.fire.referenceForce);
+  rep.residual = scale > 0.0 ? rep.maxForce / scale : 0.0;
+  rep.packingFraction = packingFraction();
+  return rep;
+}
+
+FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrupt) {
+  const FireSettings& fs = settings_.fire;
+  fs.validate();
+  FireResult res;
+  rebuildsInCall_ = 0;
+  MinimiserReport start = measure();
+  if (model_.parameters().normal == contact::NormalModel::Hertz) {
+    // Masses from the stiffness at the current overlaps (Hertz stiffens with overlap); 1e-4 without contacts.
+    const double ratio = start.maxOverlapRatio > 0.0 ? start.maxOverlapRatio : 1e-4;
+    if (ratio != hertzReferenceOverlap_) {
+      hertzReferenceOverlap_ = ratio;
+      updateMasses();
+    }
+  }
+  const Index n = particles_.count();
+  double* x = particles_.position().data();
+  double* v = particles_.velocity().data();
+  const double* f = particles_.force().data();
+  const double* im = particles_.inverseMass().data();
+  particles_.velocity().setZero();
+
+  const double dtMax = fs.dt * fs.dtMaxFactor;
+  const double dtMin = fs.dt * fs.dtMinFactor;
+  double dt = fs.dt;
+  double alpha = fs.alphaStart;
+  std::int64_t downhill = 0, uphill = 0;
+  double knownScale = std::max(start.meanContactForce, fs.referenceForce);
+  constexpr std::int64_t kMeasureEvery = 256;
+  const double overlapFloor = 64.0 * std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff();
+
+  auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
+    res.converged = converged;
+    res.stopReason = reason;
+    res.iterations = it;
+    res.rebuilds = rebuildsInCall_;
+    res.last = report ? *report : measure();
+    res.last.iteration = it;
+    res.last.dt = dt;
+    particles_.velocity().setZero();
+    return res;
+  };
+
+  for (std::int64_t it = 0;; ++it) {
+    // One pass: power P = F.v, |v|^2, |F|^2, and the terms of the kicked |v|^2, largest |F_i|^2.
+    double power = 0.0, vv = 0.0, ff = 0.0, fvm = 0.0, ffm = 0.0, fmaxSq = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      double fi = 0.0, pi = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const Index a = 3 * i + c;
+        fi += f[a] * f[a];
+        pi += f[a] * v[a];
+        vv += v[a] * v[a];
+      }
+      power += pi;
+      ff += fi;
+      fvm += pi * im[i];
+      ffm += fi * im[i] * im[i];
+      fmaxSq = std::max(fmaxSq, fi);
+    }
+    if (!std::isfinite(ff) || !std::isfinite(vv)) {
+      throw SimulationError(fmt::format("minimiser: non-finite forces or velocities at FIRE step {}", it));
+    }
+    const double fmax = std::sqrt(fmaxSq);
+    if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
+      const MinimiserReport now = measure();
+      if (now.contacts + now.wallContacts == 0) return finish(true, "no contacts", it, &now);
+      if (now.maxOverlap <= overlapFloor) return finish(true, "overlaps at round-off", it, &now);
+      knownScale = std::max(now.meanContactForce, fs.referenceForce);
+      if (fmax <= fs.forceTolerance * knownScale) return finish(true, "converged", it, &now);
+    }
+    if (it >= fs.maxIterations) return finish(false, "iteration budget", it, nullptr);
+    if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", it, nullptr);
+    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) {
+      MinimiserReport now = measure();
+      now.iteration = it;
+      now.dt = dt;
+      knownScale = std::max(now.meanContactForce, fs.referenceForce);
+      progress(now);
+    }
+
+    if (power > 0.0) {
+      ++downhill;
+      uphill = 0;
+      if (downhill > fs.nDelay) {
+        dt = std::min(dt * fs.fInc, dtMax);
+        alpha *= fs.fAlpha;
+      }
+    } else {
+      downhill = 0;
+      ++uphill;
+      ++res.uphillSteps;
+      if (uphill > fs.maxUphill) return finish(false, "uphill", it, nullptr);
+      if (!(fs.initialDelay && it < fs.nDelay)) {
+        if (dt * fs.fDec >= dtMin) dt *= fs.fDec;
+        alpha = fs.alphaStart;
+      }
+      // FIRE 2.0: correct the overshoot by half a step back, then restart from rest.
+      for (Index a = 0; a < 3 * n; ++a) {
+        x[a] -= 0.5 * dt * v[a];
+        v[a] = 0.0;
+      }
+      vv = 0.0;
+      fvm = 0.0;
+    }
+
+    // Semi-implicit Euler with the FIRE mixing between kick and drift: v += dt F/m; v = (1 - alpha) v +
+    // alpha |v| F/|F|; x += dt v. |v| after the kick from the sums above (no second pass).
+    const double kicked = std::sqrt(std::max(0.0, vv + 2.0 * dt * fvm + dt * dt * ffm));
+    const double fNorm = std::sqrt(ff);
+    const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
+    const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
+    const double* ref = verlet_.reference().data();
+    double maxSq = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      const double h = dt * im[i];
+      double dsq = 0.0;
+      for (int c = 0; c < 3; ++c) {
+        const Index a = 3 * i + c;
+        const double va = keep * (v[a] + h * f[a]) + toward * f[a];
+        v[a] = va;
+        x[a] += dt * va;
+        const double dx = x[a] - ref[a];
+        dsq += dx * dx;
+      }
+      maxSq = std::max(maxSq, dsq);
+    }
+    const double limit = std::max(0.0, 0.5 * verlet_.skin() - growthSinceBuild_);
+    if (maxSq > limit * limit) rebuild();
+    computeForces();
+  }
+}
+
+std::size_t FireMinimiser::memoryBytes() const {
+  const auto n = static_cast<std::size_t>(particles_.count());
+  std::size_t bytes = n * (9 + 2) * sizeof(double) + n * sizeof(Index);
+  bytes += crossScratch_.capacity() * sizeof(double) + crossTouching_.capacity();
+  bytes += verlet_.memoryBytes();
+  return bytes;
+}
+
+}  // namespace polydem::integrators

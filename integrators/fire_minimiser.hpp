@@ -1,0 +1,171 @@
+#pragma once
+// Energy minimisation of frictionless soft spheres by FIRE: the Fast Inertial Relaxation Engine of Bitzek,
+// Bitzek, Koskinen, Gumbsch, Moseler & Gumbsch, Phys. Rev. Lett. 97, 170201 (2006), with the FIRE 2.0
+// corrections of Guenole, Noehring, Vaid, Houlle, Xie, Prakash & Bitzek, Comput. Mater. Sci. 175, 109584
+// (2020): semi-implicit (symplectic) Euler steps, mixing v <- (1 - alpha) v + alpha |v| F/|F| between the kick
+// and the drift, on P = F.v <= 0 half a step back (x -= dt/2 v) and v = 0, dt grows only after N_delay
+// downhill steps, no dt decrease in the first N_delay steps (initial delay), dt in [dt_min, dt_max], and a
+// stop after N_P<0,max uphill steps in a row.
+//
+// Forces come from the engine's own force loop (contact::selectForceKernel, the kernel a relax step runs)
+// over the engine's Verlet list, rebuilt when 2 max|dx| + 2 max dr exceeds the skin; rows are in canonical
+// (i, j) order, so the minimised state is bit-identical for every complete broad phase. One FIRE step is one
+// reduction pass (F.v, |v|^2, |F|^2, max |F_i|), one kick-mix-drift pass and the force loop: no allocation.
+//
+// Inertia (Jacobi preconditioning): the minimum does not depend on the masses, so they are chosen to make
+// every particle's vibration frequency about the same. m_i = k_self,i + sum_j k_ij over the Verlet candidates
+// of i (k_ij the pair's normal stiffness; for Hertz at a reference overlap), i.e. the diagonal of the Hessian
+// bounded from above, so that sqrt(k/m) <= ~1 everywhere: a size ratio of 100 then needs no more steps than a
+// monodisperse packing, where physical masses (m ~ r^3 against k ~ r) would make the largest spheres 100x
+// slower than the smallest. Masses are recomputed at each neighbour-list rebuild. Time is in units where
+// omega ~ 1: dt_MD = 0.1 by default (a harmonic pair of equal m then has omega = 1, period 2 pi).
+//
+// Stopping rule: converged when max_i |F_i| <= tolerance x max(<|F_c|>, referenceForce), with <|F_c|> the
+// mean normal force over the contacts (overlap > 0), or when there are no contacts (zero energy, zero force),
+// or when every overlap is at round-off, below 64 eps max(L) (an unjammed state whose last contacts are
+// rounding noise: their forces are noise too, so no relative criterion can be met; seen at N = 256). The state
+// is measured every 256 steps (one O(P) pass: < 1% of the steps) and whenever the residual looks converged.
+// The relative criterion is scale-free (any stiffness, any pressure). Its floor is round-off: a centre is
+// known to eps L (L the box edge), so a force to eps L k; relative to a contact force k delta, the floor is
+// eps L / delta. For N = 1000 monodisperse spheres at p/k = 1e-7 (delta ~ 1e-7 d, L ~ 10 d) that is ~1e-8;
+// the default 1e-9 x max(<F_c>, referenceForce) with referenceForce the mean contact force at the target
+// pressure leaves a decade of margin in the pressure protocol. Not converged after maxIterations (or after
+// maxUphill uphill steps in a row): FireResult::converged = false with the residual reached.
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "contact/contact_law.hpp"
+#include "contact/force_loop.hpp"
+#include "core/box.hpp"
+#include "core/particle_store.hpp"
+#include "integrators/verlet_list.hpp"
+
+namespace polydem::integrators {
+
+/// FIRE 2.0 parameters (Guenole et al. 2020, Table 1 defaults).
+struct FireSettings {
+  double forceTolerance = 1e-9;  ///< converged: max |F_i| <= this x max(<|F_c|>, referenceForce)
+  double referenceForce = 0.0;   ///< N; a force scale below which residuals count as zero (0 = none)
+  std::int64_t maxIterations = 1000000;
+  double dt = 0.1;            ///< initial step dt_MD in the preconditioned units (omega ~ 1)
+  double dtMaxFactor = 10.0;  ///< dt_max = this x dt_MD
+  double dtMinFactor = 0.02;  ///< dt_min = this x dt_MD
+  int nDelay = 20;            ///< N_delay: downhill steps before dt grows and alpha shrinks
+  double fInc = 1.1;
+  double fDec = 0.5;
+  double alphaStart = 0.25;
+  double fAlpha = 0.99;
+  std::int64_t maxUphill = 2000;      ///< N_P<0,max: uphill steps in a row before giving up
+  bool initialDelay = true;           ///< no dt decrease during the first N_delay steps
+  std::int64_t progressInterval = 0;  ///< iterations between progress callbacks (0 = none)
+  /// Throws ConfigError naming the setting (minimise.force_tolerance, ...).
+  void validate() const;
+};
+
+/// What a minimiser is built with. The contact law must be frictionless and elastic (no dashpot): FIRE
+/// itself removes the energy.
+struct MinimiserSettings {
+  contact::ContactParameters contact;  ///< linear (constant or radius-scaled) or Hertz; e = 1, mu = 0
+  double skin = -1.0;                  ///< Verlet skin (m); < 0 = 0.2 r_min
+  std::string broadPhase = "linked-cell";
+  bool spatialSort = true;  ///< Morton order once at construction (ids travel with the particles)
+  int threads = 1;          ///< OpenMP threads of the force loop (bit-identical results)
+  FireSettings fire;
+};
+
+/// Observables of the current state (a pass over the contact list: not per step).
+struct MinimiserReport {
+  std::int64_t iteration = 0;     ///< FIRE steps in this minimise() call
+  double energy = 0.0;            ///< elastic energy (J)
+  double maxForce = 0.0;          ///< max_i |F_i| (N)
+  double meanContactForce = 0.0;  ///< <|F_n|> over contacts (N); 0 without contacts
+  double residual = 0.0;          ///< maxForce / max(meanContactForce, referenceForce); 0 when both are 0
+  std::size_t contacts = 0;       ///< particle pairs with overlap > 0
+  std::size_t wallContacts = 0;
+  double maxOverlapRatio = 0.0;  ///< largest overlap / smaller radius
+  double maxOverlap = 0.0;       ///< largest overlap (m)
+  double pressure = 0.0;         ///< virial pressure (Pa): sum F_n |r_ij| / (3 V), walls with lever r_i - delta
+  double reducedPressure = 0.0;  ///< pressure / pressureUnit()
+  double packingFraction = 0.0;
+  double dt = 0.0;  ///< current FIRE step
+};
+
+struct FireResult {
+  bool converged = false;
+  std::string stopReason;  ///< "converged", "no contacts", "iteration budget", "uphill", "interrupted"
+  std::int64_t iterations = 0;
+  std::int64_t uphillSteps = 0;  ///< P <= 0 events
+  std::int64_t rebuilds = 0;     ///< neighbour-list builds in this call
+  MinimiserReport last;
+};
+
+class FireMinimiser {
+ public:
+  using Progress = std::function<void(const MinimiserReport&)>;
+
+  /// Validates (ConfigError naming the key), wraps periodic centres, sorts spatially (optional), builds the
+  /// neighbour list and computes forces. Velocities start at zero.
+  FireMinimiser(ParticleStore particles, const Box& box, const MinimiserSettings& settings);
+
+  /// Run FIRE from the current positions until the stopping rule holds or the budget is spent. With
+  /// `stopOnInterrupt`, polydem::interruptRequested() is polled every step. Throws SimulationError for a
+  /// non-finite state.
+  FireResult minimise(const Progress& progress = {}, bool stopOnInterrupt = false);
+
+  /// Multiply every radius by `factor` > 0 (affine compression for > 1, decompression for < 1, at fixed
+  /// centres and box: the same configuration as shrinking the box about fixed scaled centres). Forces are
+  /// recomputed; velocities set to zero.
+  void scaleRadii(double factor);
+
+  /// Observables of the current state. O(N + P).
+  MinimiserReport measure() const;
+  /// Divisor of reducedPressure: k (N/m^2) for radius-scaled linear contacts, K (Pa) for Hertz, k / (2 <r>)
+  /// for constant linear stiffness (N/m over a mean diameter), so that p / unit is dimensionless and
+  /// independent of the length scale.
+  double pressureUnit() const { return pressureUnit_; }
+  /// Mean contact force (N) a packing of these spheres has at reduced pressure p: p unit V / (N <2r>) (from
+  /// p = N z <F> <d> / (6 V) with z = 6). For FireSettings::referenceForce.
+  double contactForceAtPressure(double reducedPressure) const;
+  double packingFraction() const;
+
+  const ParticleStore& particles() const { return particles_; }
+  /// Centres wrapped into [0, L) on periodic axes (the stored ones stray up to skin/2 outside between
+  /// rebuilds), for outputs and analyses.
+  Eigen::Matrix3Xd wrappedPositions() const;
+  const Box& box() const { return box_; }
+  const MinimiserSettings& settings() const { return settings_; }
+  FireSettings& fireSettings() { return settings_.fire; }
+  const VerletList& neighbours() const { return verlet_; }
+  const contact::ForceKernel& kernel() const { return kernel_; }
+  /// Force evaluations so far (each costs one force-loop pass).
+  std::int64_t forceEvaluations() const { return forceEvaluations_; }
+  std::size_t memoryBytes() const;
+
+ private:
+  contact::ForceContext context() const;
+  void rebuild();
+  void computeForces();
+  void updateMasses();
+  /// Stiffness scale of pair (i, j) at the reference overlap (N/m).
+  double pairStiffness(double ri, double rj) const;
+
+  ParticleStore particles_;
+  Box box_;
+  MinimiserSettings settings_;
+  contact::ContactModel model_;
+  contact::ForceKernel kernel_;
+  VerletList verlet_;
+  contact::ContactHistory pairHistory_, wallHistory_;  // width 0: the frictionless kernels keep none
+  std::vector<double> crossScratch_;
+  std::vector<std::uint8_t> crossTouching_;
+  double growthSinceBuild_ = 0.0;
+  double pressureUnit_ = 1.0;
+  double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
+  std::int64_t forceEvaluations_ = 0;
+  std::int64_t rebuildsInCall_ = 0;
+};
+
+}  // namespace polydem::integrators

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# jamming_dem_cost.sh: cost of one FIRE step against one `relax` (velocity Verlet) step on the same jammed
+# soft packing, the same contact law and broad phase (issue 19 target: within 1.2x). Time it on a quiet
+# machine (the numbers in docs/ come from such runs, never from a shared one).
+#   scripts/jamming_dem_cost.sh [-n N] [-w OMEGA] [-s STEPS] [-b BUILD] [-o OUTDIR]
+set -euo pipefail
+n=50000; omega=10; steps=2000; build=build; out=build/jamming-dem-cost
+while getopts "n:w:s:b:o:" opt; do
+  case "$opt" in n) n="$OPTARG" ;; w) omega="$OPTARG" ;; s) steps="$OPTARG" ;; b) build="$OPTARG" ;; o) out="$OPTARG" ;;
+    *) exit 2 ;; esac
+done
+polydem="$(realpath "$build/apps/polydem")"
+mkdir -p "$out"; cd "$out"
+# A jammed soft packing (p/k = 1e-4), then the same state compressed by 1e-3 for both runs.
+"$polydem" minimise -n "$n" --dist uv --omega "$omega" --phi0 0.70 --target-pressure 1e-4 --pressure-tolerance 0.2 \
+  --broad-phase linked-cell --progress 0 -o soft.txt > jam.log
+cat > relax.toml <<TOML
+[particles]
+file = "soft.txt"
+density = 1.0
+[contact]
+law = "linear"
+stiffness = 1.0
+stiffness_scaling = "radius"
+restitution = 1.0
+[velocities]
+initial = "zero"
+[run]
+steps = $steps
+broadphase = "linked-cell"
+check_interval = 0
+TOML
+relax="$("$polydem" relax relax.toml)"
+fire="$("$polydem" minimise -i soft.txt --delta-phi 1e-3 --broad-phase linked-cell --max-iterations "$steps" \
+        --force-tolerance 1e-15 --progress 0 || true)"
+r="$(awk '/us\/particle\/step in the loop/ {print $2}' <<<"$relax")"
+f="$(awk -v n="$n" '/^time / {gsub(/,/, "", $4); print 1e6 * $2 / ($4 * n)}' <<<"$fire")"
+echo "relax step  $r us/particle/step (velocity Verlet, force loop + two kicks)"
+echo "FIRE step   $f us/particle/step (whole minimise call, measurements included)"
+echo "relax: $(grep -m1 'rebuilds' <<<"$relax")"
+echo "FIRE:  $(grep -m1 '^FIRE steps' <<<"$fire")"
+echo "(FIRE moves particles further per step than a relax run from rest, so it may rebuild the neighbour list"
+echo " more often: the broad phase is inside both times; compare the rebuild counts)"
+/usr/bin/python3 -c "print(f'ratio FIRE / relax = {float(\"$f\") / float(\"$r\"):.3f} (target <= 1.2)')"

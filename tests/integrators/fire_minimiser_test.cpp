@@ -1,0 +1,129 @@
+// FIRE minimisation (integrators/fire_minimiser.hpp): known minima, the stopping rule, independence of the
+// broad phase, refusal of laws it does not apply to.
+#include "integrators/fire_minimiser.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "broadphase/registry.hpp"
+#include "core/errors.hpp"
+#include "tests/integrators/minimise_scenes.hpp"
+
+namespace polydem::integrators {
+namespace {
+
+using test::harmonicSettings;
+using test::randomSoftStart;
+
+// Two overlapping spheres in a large periodic box: the minimum is any separated state, energy exactly 0.
+TEST(FireMinimiser, OverlappingPairSeparatesToZeroEnergy) {
+  for (const auto normal : {contact::NormalModel::Linear, contact::NormalModel::Hertz}) {
+    ParticleStore p(2, Features{});
+    p.radius() << 0.5, 0.3;
+    p.position().col(0) << 5.0, 5.0, 5.0;
+    p.position().col(1) << 5.6, 5.1, 5.0;  // overlap 0.8 - 0.608 = 0.19
+    p.setMassesFromDensity(1.0);
+    p.id() = {0, 1};
+    MinimiserSettings s = harmonicSettings();
+    s.contact.normal = normal;
+    if (normal == contact::NormalModel::Hertz) s.contact.scaling = contact::StiffnessScaling::Constant;
+    FireMinimiser m(std::move(p), Box::cubic(10.0, Boundary::Periodic), s);
+    EXPECT_GT(m.measure().energy, 0.0);
+    const FireResult r = m.minimise();
+    EXPECT_TRUE(r.converged);
+    EXPECT_EQ(r.stopReason, "no contacts");
+    EXPECT_EQ(r.last.energy, 0.0);
+    EXPECT_EQ(r.last.contacts, 0u);
+    EXPECT_LT(r.iterations, 1000);
+  }
+}
+
+// A sphere squeezed between two walls closer than its diameter: the minimum is the centre of the gap
+// (both wall forces equal), energy 2 x 1/2 k r (r - L/2)^2 for the linear law with R_eff = r.
+TEST(FireMinimiser, SphereBetweenWallsFindsTheMiddle) {
+  ParticleStore p(1, Features{});
+  p.radius() << 1.0;
+  p.position().col(0) << 3.0, 3.0, 0.8;  // walls at z = 0 and z = 1.8: overlaps 0.8 / 0.0 -> 0.1 each
+  p.setMassesFromDensity(1.0);
+  p.id() = {0};
+  const Box box({6.0, 6.0, 1.8}, {Boundary::Periodic, Boundary::Periodic, Boundary::Wall});
+  MinimiserSettings s = harmonicSettings();
+  s.fire.forceTolerance = 1e-12;
+  FireMinimiser m(std::move(p), box, s);
+  const FireResult r = m.minimise();
+  ASSERT_TRUE(r.converged) << r.stopReason;
+  EXPECT_NEAR(m.particles().position()(2, 0), 0.9, 1e-12);
+  EXPECT_NEAR(r.last.energy, 2.0 * 0.5 * 1.0 * 0.1 * 0.1, 1e-14);
+  EXPECT_EQ(r.last.wallContacts, 2u);
+  EXPECT_LE(r.last.residual, 1e-12);
+}
+
+// A dense random start: converges to the stated residual, the energy falls, forces balance.
+TEST(FireMinimiser, DenseStartConvergesToTheTolerance) {
+  auto start = randomSoftStart(256, 0.72, 3);
+  MinimiserSettings s = harmonicSettings();
+  FireMinimiser m(std::move(start.particles), start.box, s);
+  const double e0 = m.measure().energy;
+  const FireResult r = m.minimise();
+  ASSERT_TRUE(r.converged) << r.stopReason << " residual " << r.last.residual;
+  EXPECT_EQ(r.stopReason, "converged");
+  EXPECT_LE(r.last.residual, s.fire.forceTolerance);
+  EXPECT_LT(r.last.energy, e0);
+  EXPECT_GT(r.last.contacts, 600u);  // jammed well above phi_J ~ 0.64: z > 6
+  // Net force: zero to round-off (the forces are pairwise opposite).
+  EXPECT_LT(m.particles().force().rowwise().sum().norm(), 1e-12 * r.last.meanContactForce * 256);
+}
+
+// Budget spent: not converged, the residual reached is reported.
+TEST(FireMinimiser, IterationBudgetIsReported) {
+  auto start = randomSoftStart(128, 0.7, 5);
+  MinimiserSettings s = harmonicSettings();
+  s.fire.maxIterations = 10;
+  FireMinimiser m(std::move(start.particles), start.box, s);
+  const FireResult r = m.minimise();
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.stopReason, "iteration budget");
+  EXPECT_EQ(r.iterations, 10);
+  EXPECT_GT(r.last.residual, s.fire.forceTolerance);
+}
+
+// The minimised state is bit-identical for every complete broad phase: the Verlet list is in canonical
+// order, so every backend gives the same force sums and the same FIRE trajectory.
+TEST(FireMinimiser, BitIdenticalForEveryBroadPhase) {
+  const auto reference = [] {
+    auto start = randomSoftStart(200, 0.70, 11);
+    FireMinimiser m(std::move(start.particles), start.box, harmonicSettings("brute"));
+    const FireResult r = m.minimise();
+    EXPECT_TRUE(r.converged);
+    return std::make_pair(m.particles().position(), r.iterations);
+  }();
+  for (const std::string& name : broadphase::backendNames()) {
+    SCOPED_TRACE(name);
+    auto start = randomSoftStart(200, 0.70, 11);
+    FireMinimiser m(std::move(start.particles), start.box, harmonicSettings(name));
+    const FireResult r = m.minimise();
+    EXPECT_EQ(r.iterations, reference.second);
+    ASSERT_EQ(m.particles().position().size(), reference.first.size());
+    EXPECT_EQ(std::memcmp(m.particles().position().data(), reference.first.data(),
+                          sizeof(double) * static_cast<std::size_t>(reference.first.size())),
+              0);
+  }
+}
+
+TEST(FireMinimiser, RefusesFrictionAndDashpots) {
+  auto start = randomSoftStart(10, 0.3, 1);
+  MinimiserSettings s = harmonicSettings();
+  s.contact.friction = 0.5;
+  EXPECT_THROW(FireMinimiser(start.particles, start.box, s), ConfigError);
+  s.contact.friction = 0.0;
+  s.contact.restitution = 0.5;
+  EXPECT_THROW(FireMinimiser(start.particles, start.box, s), ConfigError);
+  s.contact.restitution = 1.0;
+  s.fire.forceTolerance = -1.0;
+  EXPECT_THROW(FireMinimiser(start.particles, start.box, s), ConfigError);
+}
+
+}  // namespace
+}  // namespace polydem::integrators
