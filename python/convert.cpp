@@ -30,7 +30,8 @@ Centres::Centres(const py::handle& object, const std::string& what) {
   }
   const bool isDouble = any.dtype().is(py::dtype::of<double>());
   const bool sameBytes = rows ? (any.flags() & py::array::c_style) != 0 : (any.flags() & py::array::f_style) != 0;
-  if (isDouble && sameBytes) {
+  // Only the caller's own array counts: a list or another dtype was converted into a temporary by ensure().
+  if (isDouble && sameBytes && any.ptr() == object.ptr()) {
     keep_ = any;
     const Index n = static_cast<Index>(rows ? any.shape(0) : any.shape(1));
     new (&map_) Eigen::Map<const Eigen::Matrix3Xd>(static_cast<const double*>(any.data()), 3, n);

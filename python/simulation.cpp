@@ -64,13 +64,8 @@ std::string tomlString(const std::string& s) {
 std::string tomlValue(const py::handle& v, const std::string& key) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "true" : "false";
   if (py::isinstance<py::int_>(v)) return py::str(v);
-  if (py::isinstance<py::float_>(v)) {
-    const double x = v.cast<double>();
-    if (std::isnan(x)) return "nan";
-    if (std::isinf(x)) return x > 0 ? "inf" : "-inf";
-    return fmt::format("{:.17g}", x).find_first_of(".en") == std::string::npos ? fmt::format("{:.17g}.0", x)
-                                                                               : fmt::format("{:.17g}", x);
-  }
+  // Python's repr is the shortest text that reads back as the same double, and valid TOML (1e-05, inf, nan).
+  if (py::isinstance<py::float_>(v)) return py::repr(py::float_(v.cast<double>()));
   if (py::isinstance<py::str>(v)) return tomlString(v.cast<std::string>());
   if (py::isinstance<py::sequence>(v) || py::hasattr(v, "tolist")) {
     py::object list = py::hasattr(v, "tolist") ? v.attr("tolist")() : py::reinterpret_borrow<py::object>(v);
