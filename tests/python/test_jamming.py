@@ -43,3 +43,20 @@ def test_analyze_needs_a_pressure():
     with pytest.raises(polydem.InputError, match="not a valid hard-sphere packing"):
         polydem.analyze({k: overlapping[k] for k in ("positions", "radii", "box")}, contact_gap=1e-6)
     assert not polydem.check_packing({k: overlapping[k] for k in ("positions", "radii", "box")})["valid"]
+
+
+def test_jam_ctrl_c_stops_at_a_block_boundary():
+    import os
+    import signal
+    import threading
+    import time
+
+    timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
+    start = time.monotonic()
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            polydem.jam(polydem.Distribution("uv", rmin=1, omega=3), count=2000, seed=1, target_pressure=1e11)
+    finally:
+        timer.cancel()
+    assert time.monotonic() - start < 60
