@@ -90,6 +90,10 @@ struct RunMode {
   std::optional<std::string> targetNotReached = {};  ///< the soft compression's reason: outputs are marked
 };
 
+/// Particle data in id order, for snapshots and the final state: positions (wrapped), velocities, angular
+/// velocities (rotation on), time, step, and `attrs` plus step, time, contact and dt (the Python module writes
+/// its files through it too, so they match the CLI's byte for byte).
+io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs);
 /// Every output of the scene (and the sweep's), checked before anything is computed.
 void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
                   const std::vector<std::pair<std::filesystem::path, std::string>>& extra = {});

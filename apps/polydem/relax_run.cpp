@@ -28,8 +28,8 @@ std::vector<Index> idOrder(const ParticleStore& p) {
   return order;
 }
 
-/// Particle data in id order, for snapshots and the final state: positions, velocities, angular
-/// velocities (rotation on), time and step.
+}  // namespace
+
 io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs) {
   const ParticleStore& p = sim.particles();
   const Index n = p.count();
@@ -58,6 +58,8 @@ io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::ma
   d.attributes["dt"] = fmt::format("{:.17g}", sim.dt());
   return d;
 }
+
+namespace {
 
 std::string withStep(const std::string& pattern, std::int64_t step) {
   std::string out = pattern;

@@ -1,0 +1,13 @@
+#pragma once
+// Particle data <-> the dict form of a particle file (io.cpp), shared by the binding files.
+#include "core/io/particle_data.hpp"
+#include "python/convert.hpp"
+
+namespace polydem::python {
+
+/// positions (N, 3), radii, id, velocities / angular_velocities (or None), box, time, attributes (copies).
+py::dict particleDict(const io::ParticleData& data);
+/// The inverse; positions, radii and box required, id defaults to 0..N-1. Throws ConfigError naming the key.
+io::ParticleData particleData(const py::dict& d);
+
+}  // namespace polydem::python
