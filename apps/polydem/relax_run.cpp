@@ -13,7 +13,9 @@
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/attributes.hpp"
+#include "core/io/hdf5_snapshot.hpp"
 #include "core/io/safe_output.hpp"
+#include "core/io/xdmf.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::app {
@@ -130,8 +132,26 @@ class LoopOutputs {
       : scene_(scene), run_(run), attributes_(std::move(attributes)) {}
   bool snapshots() const { return !scene_.snapshot.empty() && scene_.snapshotInterval > 0; }
   bool checkpoints() const { return !scene_.checkpoint.empty(); }
-  void writeSnapshot(const integrators::DemSimulation& sim) const {
-    io::writeParticles(withStep(scene_.snapshot, sim.step()), snapshotOf(sim, attributes_));
+  /// A resumed run's series starts with the snapshots the first run left on disk up to `step`.
+  void resumeSeries(std::int64_t step) {
+    if (!hdf5Snapshots()) return;
+    const std::int64_t interval = std::max<std::int64_t>(scene_.snapshotInterval, 1);
+    for (std::int64_t s = 0; s <= step; s += interval) {
+      const std::filesystem::path file = withStep(scene_.snapshot, s);
+      if (std::filesystem::exists(file)) frames_.push_back(io::xdmfFrameOf(file, io::readSnapshot(file)));
+      if (scene_.snapshot.find("{step}") == std::string::npos) break;
+    }
+  }
+  /// The snapshot of this step, and for HDF5 snapshots the temporal series file rewritten with it.
+  void writeSnapshot(const integrators::DemSimulation& sim) {
+    const std::string file = withStep(scene_.snapshot, sim.step());
+    const io::ParticleData data = snapshotOf(sim, attributes_);
+    io::writeParticles(file, data);
+    if (!hdf5Snapshots()) return;
+    // One pattern without {step} rewrites one file: its series holds one frame.
+    if (scene_.snapshot.find("{step}") == std::string::npos) frames_.clear();
+    frames_.push_back(io::xdmfFrameOf(file, data));
+    io::writeXdmfSeries(io::seriesPathFor(scene_.snapshot), frames_);
   }
   void writeCheckpoint(const integrators::DemSimulation& sim) {
     io::writeCheckpoint(scene_.checkpoint, makeCheckpoint(sim, run_));
@@ -153,8 +173,11 @@ class LoopOutputs {
   const RelaxScene& scene_;
   const RunContext& run_;
   std::map<std::string, std::string> attributes_;
+  bool hdf5Snapshots() const { return !scene_.snapshot.empty() && io::isHdf5Path(scene_.snapshot); }
+
   Stopwatch clock_;
   double lastCheckpoint_ = 0.0;
+  std::vector<io::XdmfFrame> frames_;  ///< the snapshots of the series file, in step order
 };
 
 void printProgress(const integrators::DemSimulation& sim, std::int64_t total, std::int64_t firstStep,
@@ -216,6 +239,9 @@ void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::pa
   if (!scene.finalState.empty()) outputs.emplace_back(scene.finalState, "output.final");
   if (!scene.timeseries.empty()) outputs.emplace_back(scene.timeseries, "output.timeseries");
   if (!scene.snapshot.empty()) outputs.emplace_back(withStep(scene.snapshot, 0), "output.snapshot");
+  if (!scene.snapshot.empty() && io::isHdf5Path(scene.snapshot)) {
+    outputs.emplace_back(io::seriesPathFor(scene.snapshot), "output.snapshot (its series file)");
+  }
   if (!scene.checkpoint.empty()) outputs.emplace_back(scene.checkpoint, "output.checkpoint");
   for (std::size_t a = 0; a < outputs.size(); ++a) {
     io::checkOutputPath(outputs[a].first, outputs[a].second, inputs);
@@ -236,6 +262,7 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
 
   TimeSeries series(scene, sim, mode.resumed);
   LoopOutputs out(scene, run, std::move(attributes));
+  if (mode.resumed) out.resumeSeries(sim.step());
   if (!mode.resumed) {
     if (series.enabled()) series.write(sim);
     if (out.snapshots()) out.writeSnapshot(sim);
