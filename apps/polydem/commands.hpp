@@ -15,5 +15,6 @@ Runner addJam(CLI::App& app);
 Runner addAnalyze(CLI::App& app);
 Runner addBench(CLI::App& app);
 Runner addPredict(CLI::App& app);
+Runner addConvert(CLI::App& app);
 
 }  // namespace polydem::app

@@ -29,6 +29,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addAnalyze);
   add(&polydem::app::addBench);
   add(&polydem::app::addPredict);
+  add(&polydem::app::addConvert);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
