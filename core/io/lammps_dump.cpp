@@ -72,8 +72,8 @@ void writeLammpsDump(const std::filesystem::path& file, std::span<const Particle
     for (const ParticleArray& a : data.arrays) {
       if (a.name == "type") type = &a;
     }
-    // TIME before TIMESTEP, as LAMMPS's own `dump_modify time yes` writes it: read_dump of LAMMPS
-    // 2021 skips it there but refuses it after TIMESTEP.
+    // TIME before TIMESTEP: read_dump of LAMMPS 29 Sep 2021 accepts it there but refuses the file with it
+    // after TIMESTEP (checked with Debian's lmp).
     out += fmt::format("ITEM: TIME\n{:.17g}\nITEM: TIMESTEP\n{}\nITEM: NUMBER OF ATOMS\n{}\n", data.time, step, n);
     const auto bc = [&](int k) { return data.box.periodic(k) ? "pp" : "ff"; };
     out += fmt::format("ITEM: BOX BOUNDS {} {} {}\n", bc(0), bc(1), bc(2));
