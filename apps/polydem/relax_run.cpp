@@ -10,6 +10,7 @@
 
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/relax.hpp"
+#include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/attributes.hpp"
@@ -59,6 +60,68 @@ io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::ma
   d.attributes["contact"] = sim.model().parameters().describe();
   d.attributes["dt"] = fmt::format("{:.17g}", sim.dt());
   return d;
+}
+
+/// The optional arrays `names` (output.arrays) of the snapshot `d` (id order, as snapshotOf()).
+/// Computed here, at snapshot time only: contact_count and max_overlap (m) count particle pairs that
+/// overlap (walls not included), found with a linked-cell pass over the snapshot (brute force where the
+/// box is too small for cells); kinetic_energy is translational + rotational (J).
+void addSnapshotArrays(io::ParticleData& d, const integrators::DemSimulation& sim,
+                       const std::vector<std::string>& names) {
+  if (names.empty()) return;
+  const ParticleStore& p = sim.particles();
+  const Index n = p.count();
+  const std::vector<Index> order = idOrder(p);
+  const bool rotation = p.features().rotation;
+  for (const std::string& name : names) {
+    io::ParticleArray a{name, Eigen::MatrixXd()};
+    if (name == "force" || name == "torque") {
+      a.values = Eigen::MatrixXd::Zero(3, n);
+      if (name == "force" || rotation) {
+        for (Index k = 0; k < n; ++k) {
+          const Index i = order[std::size_t(k)];
+          a.values.col(k) = name == "force" ? p.force().col(i) : p.torque().col(i);
+        }
+      }
+    } else if (name == "angular_velocity") {
+      // Stored as the built-in dataset; zeros when the run has no rotation.
+      if (!d.angularVelocity) d.angularVelocity = Eigen::Matrix3Xd::Zero(3, n);
+      continue;
+    } else if (name == "kinetic_energy") {
+      a.values = Eigen::MatrixXd::Zero(1, n);
+      for (Index k = 0; k < n; ++k) {
+        const Index i = order[std::size_t(k)];
+        double e = 0.5 * p.velocity().col(i).squaredNorm() / p.inverseMass()[i];
+        if (rotation) e += 0.5 * p.angularVelocity().col(i).squaredNorm() / p.inverseInertia()[i];
+        a.values(0, k) = e;
+      }
+    } else {  // contact_count, max_overlap
+      a.values = Eigen::MatrixXd::Zero(1, n);
+      const SphereView spheres{d.position, d.radius};
+      std::vector<broadphase::Pair> pairs;
+      std::unique_ptr<broadphase::BroadPhase> bp = broadphase::makeBroadPhase("linked-cell");
+      try {
+        bp->build(spheres, d.box, 0.0);
+      } catch (const ConfigError&) {
+        bp = broadphase::makeBroadPhase("brute");
+        bp->build(spheres, d.box, 0.0);
+      }
+      bp->findPairs(spheres, pairs);
+      for (const broadphase::Pair& pair : pairs) {
+        const double gap = d.box.minimumImage(d.position.col(pair.i) - d.position.col(pair.j)).norm() -
+                           (d.radius[pair.i] + d.radius[pair.j]);
+        if (gap >= 0.0) continue;
+        if (name == "contact_count") {
+          a.values(0, pair.i) += 1.0;
+          a.values(0, pair.j) += 1.0;
+        } else {
+          a.values(0, pair.i) = std::max(a.values(0, pair.i), -gap);
+          a.values(0, pair.j) = std::max(a.values(0, pair.j), -gap);
+        }
+      }
+    }
+    d.arrays.push_back(std::move(a));
+  }
 }
 
 std::string withStep(const std::string& pattern, std::int64_t step) {
@@ -145,7 +208,8 @@ class LoopOutputs {
   /// The snapshot of this step, and for HDF5 snapshots the temporal series file rewritten with it.
   void writeSnapshot(const integrators::DemSimulation& sim) {
     const std::string file = withStep(scene_.snapshot, sim.step());
-    const io::ParticleData data = snapshotOf(sim, attributes_);
+    io::ParticleData data = snapshotOf(sim, attributes_);
+    addSnapshotArrays(data, sim, scene_.snapshotArrays);
     io::writeParticles(file, data);
     if (!hdf5Snapshots()) return;
     // One pattern without {step} rewrites one file: its series holds one frame.

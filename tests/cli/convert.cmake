@@ -7,3 +7,8 @@ polydem_cli_test(NAME convert_missing_input COMMAND convert no_such_file.data ou
                  PASS "no_such_file.data: no such file")
 polydem_cli_test(NAME convert_bad_format COMMAND convert a.txt b.h5 --to xyz EXIT 2 PASS "--to")
 polydem_cli_test(NAME convert_series_not_xmf COMMAND convert --series s.h5 a.h5 EXIT 2 PASS "must end in .xmf")
+# relax output.arrays (issue 21): unknown names and snapshots that cannot hold arrays are scene errors.
+polydem_cli_test(NAME relax_arrays_unknown COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.h5\"
+                 --set output.arrays=[\"force\",\"bogus\"] EXIT 2 PASS "output.arrays: unknown array \"bogus\"" LABELS relax)
+polydem_cli_test(NAME relax_arrays_text_snapshot COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.txt\"
+                 --set output.arrays=[\"force\"] EXIT 2 PASS "output.arrays needs HDF5" LABELS relax)

@@ -111,6 +111,25 @@ for s in snaps:
 check_sidecar("final.xmf", 200, 0.5e-3, 2e-3)
 check_series("snap_series.xmf", snaps)
 
+# relax output.arrays: the optional arrays reach the snapshot, its sidecar and the series, and agree
+# with the run's own report (contacts, kinetic + rotational energy)
+out = run("relax", "scene.toml", "--set", 'output.snapshot="arr_{step}.h5"', "--set", "output.final=\"\"", "--set",
+          'output.arrays=["force","torque","contact_count","max_overlap","kinetic_energy"]')
+m = check_sidecar("arr_000000300.xmf", 200, 0.5e-3, 2e-3,
+                  ("radius", "force", "torque", "contact_count", "max_overlap", "kinetic_energy"))
+contacts = int(next(line for line in out.splitlines() if line.startswith("contacts")).split()[1])
+check(m.point_data["contact_count"].sum() == 2 * contacts,
+      f"arr_000000300.xmf: contact counts sum to 2 x {contacts} (the report's contacts)")
+energy = next(line for line in out.splitlines() if line.startswith("energy (J)")).replace(",", "").split()
+kinetic, rotational = float(energy[3]), float(energy[5])
+total = m.point_data["kinetic_energy"].sum()
+check(abs(total - (kinetic + rotational)) <= 1e-5 * (kinetic + rotational),
+      f"arr_000000300.xmf: kinetic energies sum to {total:.6g} J (report: {kinetic + rotational:.6g} J, 6 digits)")
+check(m.point_data["max_overlap"].max() > 0 and m.point_data["force"].shape == (200, 3), "arr: overlaps and forces")
+with meshio.xdmf.TimeSeriesReader("arr_series.xmf") as reader:
+    reader.read_points_cells()
+    check("contact_count" in reader.read_data(reader.num_steps - 1)[1], "arr_series.xmf: arrays in the series")
+
 # jam -o .h5: with velocities
 run("jam", "-n", "150", "--dist", "uv", "--omega", "3", "--seed", "2", "--target-pressure", "1e3", "-o", "j.h5")
 check_sidecar("j.xmf", 150, arrays=("radius", "id", "velocity"))
