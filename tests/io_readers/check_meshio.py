@@ -111,6 +111,12 @@ for s in snaps:
 check_sidecar("final.xmf", 200, 0.5e-3, 2e-3)
 check_series("snap_series.xmf", snaps)
 
+# a resumed run's series holds the first run's snapshots too, as the uninterrupted run's series does
+run("relax", "scene.toml", "-q", "--steps", "150", "--set", 'output.snapshot="res_{step}.h5"', "--set",
+    'output.checkpoint="ck.h5"', "--set", "output.final=\"\"")
+run("relax", "--resume", "ck.h5", "-q", "--steps", "300")
+check_series("res_series.xmf", [f"res_{s:09d}.h5" for s in (0, 100, 200, 300)])
+
 # relax output.arrays: the optional arrays reach the snapshot, its sidecar and the series, and agree
 # with the run's own report (contacts, kinetic + rotational energy)
 out = run("relax", "scene.toml", "--set", 'output.snapshot="arr_{step}.h5"', "--set", "output.final=\"\"", "--set",
