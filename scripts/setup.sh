@@ -10,6 +10,7 @@ packages=(
   libcli11-dev libtomlplusplus-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  python3-meshio python3-h5py  # tests/io_readers (check tools: the tests skip without them)
   clang libfuzzer-14-dev clang-format
   python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib
 )

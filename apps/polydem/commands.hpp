@@ -16,5 +16,6 @@ Runner addAnalyze(CLI::App& app);
 Runner addBench(CLI::App& app);
 Runner addPredict(CLI::App& app);
 Runner addMinimise(CLI::App& app);
+Runner addConvert(CLI::App& app);
 
 }  // namespace polydem::app

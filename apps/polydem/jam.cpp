@@ -113,7 +113,8 @@ void addJamOptions(CLI::App* cmd, JamOptions* opt) {
       ->check(finiteIn(0.0, 1e9))
       ->capture_default_str();
   cmd->add_option("-o,--output", opt->output, "write the packing: .h5/.hdf5 for HDF5 (+ .xmf), else plain text");
-  cmd->add_flag("--velocities", opt->writeVelocities, "store velocities in the output");
+  cmd->add_flag("--velocities", opt->writeVelocities,
+                "store velocities in a text output too (HDF5 and LAMMPS outputs always hold them)");
   cmd->add_option("--progress", opt->progressSeconds, "seconds between progress lines (0 = every block)")
       ->check(finiteNonNegative())
       ->capture_default_str();
@@ -615,7 +616,9 @@ void writePacking(const JamRun& run, const edmd::CompressionResult& result, cons
   out.box = system.box();
   out.position = s.x;
   out.radius = s.r;
-  if (opt.writeVelocities) out.velocity = system.velocities();
+  // Hard spheres end a run with velocities: HDF5 and LAMMPS outputs always carry them; the text format
+  // only with --velocities, so its four columns (which analyze, scripts and the determinism reference read) stay.
+  if (opt.writeVelocities || !io::isTextPath(opt.output)) out.velocity = system.velocities();
   out.id = run.start.id;
   out.time = system.time();
   out.attributes = run.start.attributes;

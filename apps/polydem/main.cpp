@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addAnalyze);
   add(&polydem::app::addBench);
   add(&polydem::app::addPredict);
+  add(&polydem::app::addConvert);
   add(&polydem::app::addMinimise);
   // --summary-json on the subcommands whose reports feed it (apps/polydem/summary.hpp).
   std::string summaryPath;

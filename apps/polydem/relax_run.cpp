@@ -10,10 +10,13 @@
 
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/relax.hpp"
+#include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/attributes.hpp"
+#include "core/io/hdf5_snapshot.hpp"
 #include "core/io/safe_output.hpp"
+#include "core/io/xdmf.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::app {
@@ -60,6 +63,68 @@ io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::ma
 }
 
 namespace {
+
+/// The optional arrays `names` (output.arrays) of the snapshot `d` (id order, as snapshotOf()).
+/// Computed here, at snapshot time only: contact_count and max_overlap (m) count particle pairs that
+/// overlap (walls not included), found with a linked-cell pass over the snapshot (brute force where the
+/// box is too small for cells); kinetic_energy is translational + rotational (J).
+void addSnapshotArrays(io::ParticleData& d, const integrators::DemSimulation& sim,
+                       const std::vector<std::string>& names) {
+  if (names.empty()) return;
+  const ParticleStore& p = sim.particles();
+  const Index n = p.count();
+  const std::vector<Index> order = idOrder(p);
+  const bool rotation = p.features().rotation;
+  for (const std::string& name : names) {
+    io::ParticleArray a{name, Eigen::MatrixXd()};
+    if (name == "force" || name == "torque") {
+      a.values = Eigen::MatrixXd::Zero(3, n);
+      if (name == "force" || rotation) {
+        for (Index k = 0; k < n; ++k) {
+          const Index i = order[std::size_t(k)];
+          a.values.col(k) = name == "force" ? p.force().col(i) : p.torque().col(i);
+        }
+      }
+    } else if (name == "angular_velocity") {
+      // Stored as the built-in dataset; zeros when the run has no rotation.
+      if (!d.angularVelocity) d.angularVelocity = Eigen::Matrix3Xd::Zero(3, n);
+      continue;
+    } else if (name == "kinetic_energy") {
+      a.values = Eigen::MatrixXd::Zero(1, n);
+      for (Index k = 0; k < n; ++k) {
+        const Index i = order[std::size_t(k)];
+        double e = 0.5 * p.velocity().col(i).squaredNorm() / p.inverseMass()[i];
+        if (rotation) e += 0.5 * p.angularVelocity().col(i).squaredNorm() / p.inverseInertia()[i];
+        a.values(0, k) = e;
+      }
+    } else {  // contact_count, max_overlap
+      a.values = Eigen::MatrixXd::Zero(1, n);
+      const SphereView spheres{d.position, d.radius};
+      std::vector<broadphase::Pair> pairs;
+      std::unique_ptr<broadphase::BroadPhase> bp = broadphase::makeBroadPhase("linked-cell");
+      try {
+        bp->build(spheres, d.box, 0.0);
+      } catch (const ConfigError&) {
+        bp = broadphase::makeBroadPhase("brute");
+        bp->build(spheres, d.box, 0.0);
+      }
+      bp->findPairs(spheres, pairs);
+      for (const broadphase::Pair& pair : pairs) {
+        const double gap = d.box.minimumImage(d.position.col(pair.i) - d.position.col(pair.j)).norm() -
+                           (d.radius[pair.i] + d.radius[pair.j]);
+        if (gap >= 0.0) continue;
+        if (name == "contact_count") {
+          a.values(0, pair.i) += 1.0;
+          a.values(0, pair.j) += 1.0;
+        } else {
+          a.values(0, pair.i) = std::max(a.values(0, pair.i), -gap);
+          a.values(0, pair.j) = std::max(a.values(0, pair.j), -gap);
+        }
+      }
+    }
+    d.arrays.push_back(std::move(a));
+  }
+}
 
 std::string withStep(const std::string& pattern, std::int64_t step) {
   std::string out = pattern;
@@ -132,8 +197,27 @@ class LoopOutputs {
       : scene_(scene), run_(run), attributes_(std::move(attributes)) {}
   bool snapshots() const { return !scene_.snapshot.empty() && scene_.snapshotInterval > 0; }
   bool checkpoints() const { return !scene_.checkpoint.empty(); }
-  void writeSnapshot(const integrators::DemSimulation& sim) const {
-    io::writeParticles(withStep(scene_.snapshot, sim.step()), snapshotOf(sim, attributes_));
+  /// A resumed run's series starts with the snapshots the first run left on disk up to `step`.
+  void resumeSeries(std::int64_t step) {
+    if (!hdf5Snapshots()) return;
+    const std::int64_t interval = std::max<std::int64_t>(scene_.snapshotInterval, 1);
+    for (std::int64_t s = 0; s <= step; s += interval) {
+      const std::filesystem::path file = withStep(scene_.snapshot, s);
+      if (std::filesystem::exists(file)) frames_.push_back(io::xdmfFrameOf(file, io::readSnapshot(file)));
+      if (scene_.snapshot.find("{step}") == std::string::npos) break;
+    }
+  }
+  /// The snapshot of this step, and for HDF5 snapshots the temporal series file rewritten with it.
+  void writeSnapshot(const integrators::DemSimulation& sim) {
+    const std::string file = withStep(scene_.snapshot, sim.step());
+    io::ParticleData data = snapshotOf(sim, attributes_);
+    addSnapshotArrays(data, sim, scene_.snapshotArrays);
+    io::writeParticles(file, data);
+    if (!hdf5Snapshots()) return;
+    // One pattern without {step} rewrites one file: its series holds one frame.
+    if (scene_.snapshot.find("{step}") == std::string::npos) frames_.clear();
+    frames_.push_back(io::xdmfFrameOf(file, data));
+    io::writeXdmfSeries(io::seriesPathFor(scene_.snapshot), frames_);
   }
   void writeCheckpoint(const integrators::DemSimulation& sim) {
     io::writeCheckpoint(scene_.checkpoint, makeCheckpoint(sim, run_));
@@ -155,8 +239,11 @@ class LoopOutputs {
   const RelaxScene& scene_;
   const RunContext& run_;
   std::map<std::string, std::string> attributes_;
+  bool hdf5Snapshots() const { return !scene_.snapshot.empty() && io::isHdf5Path(scene_.snapshot); }
+
   Stopwatch clock_;
   double lastCheckpoint_ = 0.0;
+  std::vector<io::XdmfFrame> frames_;  ///< the snapshots of the series file, in step order
 };
 
 void printProgress(const integrators::DemSimulation& sim, std::int64_t total, std::int64_t firstStep,
@@ -218,6 +305,9 @@ void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::pa
   if (!scene.finalState.empty()) outputs.emplace_back(scene.finalState, "output.final");
   if (!scene.timeseries.empty()) outputs.emplace_back(scene.timeseries, "output.timeseries");
   if (!scene.snapshot.empty()) outputs.emplace_back(withStep(scene.snapshot, 0), "output.snapshot");
+  if (!scene.snapshot.empty() && io::isHdf5Path(scene.snapshot)) {
+    outputs.emplace_back(io::seriesPathFor(scene.snapshot), "output.snapshot (its series file)");
+  }
   if (!scene.checkpoint.empty()) outputs.emplace_back(scene.checkpoint, "output.checkpoint");
   for (std::size_t a = 0; a < outputs.size(); ++a) {
     io::checkOutputPath(outputs[a].first, outputs[a].second, inputs);
@@ -238,6 +328,7 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
 
   TimeSeries series(scene, sim, mode.resumed);
   LoopOutputs out(scene, run, std::move(attributes));
+  if (mode.resumed) out.resumeSeries(sim.step());
   if (!mode.resumed) {
     if (series.enabled()) series.write(sim);
     if (out.snapshots()) out.writeSnapshot(sim);

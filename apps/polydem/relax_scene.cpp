@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -426,6 +427,28 @@ void readOutput(Section output, RelaxScene& s) {
   s.timeseries = output.string("timeseries", "");
   s.timeseriesInterval = output.integerAtLeast("timeseries_interval", s.timeseriesInterval, 1);
   s.finalState = output.string("final", "");
+  {
+    // Optional per-particle arrays of the snapshots; computed only when listed.
+    static const std::set<std::string> kArrays = {"force",         "torque",      "angular_velocity",
+                                                  "contact_count", "max_overlap", "kinetic_energy"};
+    const std::string list = output.words("arrays", "");
+    std::size_t begin = 0;
+    while (!list.empty() && begin <= list.size()) {
+      const std::size_t end = std::min(list.find(',', begin), list.size());
+      const std::string name = list.substr(begin, end - begin);
+      if (kArrays.count(name) == 0) {
+        throw ConfigError(
+            fmt::format("output.arrays: unknown array \"{}\"; known: force, torque, angular_velocity, "
+                        "contact_count, max_overlap, kinetic_energy",
+                        name));
+      }
+      if (std::find(s.snapshotArrays.begin(), s.snapshotArrays.end(), name) != s.snapshotArrays.end()) {
+        throw ConfigError(fmt::format("output.arrays: \"{}\" is listed twice", name));
+      }
+      s.snapshotArrays.push_back(name);
+      begin = end + 1;
+    }
+  }
   s.checkpoint = output.string("checkpoint", "");
   s.checkpointInterval = output.integerAtLeast("checkpoint_interval", s.checkpointInterval, 0);
   s.checkpointSeconds = output.number("checkpoint_seconds", s.checkpointSeconds);
@@ -436,6 +459,17 @@ void readOutput(Section output, RelaxScene& s) {
   if (!s.checkpoint.empty() && !(s.checkpoint.ends_with(".h5") || s.checkpoint.ends_with(".hdf5"))) {
     throw ConfigError(
         fmt::format("output.checkpoint = \"{}\": checkpoints are HDF5 files, name it *.h5", s.checkpoint));
+  }
+  if (!s.snapshotArrays.empty()) {
+    const std::string& f = s.snapshot;
+    const bool holdsArrays =
+        f.ends_with(".h5") || f.ends_with(".hdf5") || f.ends_with(".dump") || f.ends_with(".lammpstrj");
+    if (!holdsArrays) {
+      throw ConfigError(
+          fmt::format("output.arrays needs HDF5 (.h5) or LAMMPS dump (.dump) snapshots; output.snapshot = "
+                      "\"{}\" {}",
+                      f, f.empty() ? "is not set" : "is a text file, which has no columns for them"));
+    }
   }
   if (!s.snapshot.empty() && s.snapshotInterval > 0 && s.snapshot.find("{step}") == std::string::npos) {
     throw ConfigError(
@@ -569,6 +603,8 @@ std::string defaultSceneToml() {
   t += "timeseries = \"\"  # CSV; empty = none\n";
   t += fmt::format("timeseries_interval = {}\n", s.timeseriesInterval);
   t += "final = \"\"  # particle file; empty = none\n";
+  t += "arrays = []  # optional snapshot arrays: force, torque, angular_velocity, contact_count, max_overlap, "
+       "kinetic_energy\n";
   t += "checkpoint = \"\"  # HDF5 file for relax --resume; empty = none\n";
   t += fmt::format("checkpoint_interval = {}  # steps; 0 = none by steps\n", s.checkpointInterval);
   t += fmt::format("checkpoint_seconds = {}  # wall-clock s; 0 = none by time\n", num(s.checkpointSeconds));

@@ -66,6 +66,7 @@ struct RelaxScene {
   std::string timeseries;                                    ///< CSV path; empty = none
   std::int64_t timeseriesInterval = 100;
   std::string finalState;                                ///< particle file; empty = none
+  std::vector<std::string> snapshotArrays;               ///< optional snapshot arrays (kSnapshotArrays)
   std::string checkpoint;                                ///< HDF5 checkpoint file (relax --resume); empty = none
   std::int64_t checkpointInterval = 0;                   ///< steps between checkpoints; 0 = none by steps
   double checkpointSeconds = kDefaultCheckpointSeconds;  ///< wall-clock seconds between checkpoints; 0 = none

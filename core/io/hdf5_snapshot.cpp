@@ -24,6 +24,7 @@
 #include "core/errors.hpp"
 #include "core/io/hdf5_handle.hpp"
 #include "core/io/safe_output.hpp"
+#include "core/io/xdmf.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::io {
@@ -154,82 +155,10 @@ void writeDoubleAttribute(const Context& ctx, hid_t location, const char* key, d
   if (H5Awrite(attribute.get(), H5T_NATIVE_DOUBLE, &value) < 0) ctx.failHdf5(label, "cannot write");
 }
 
-std::string xmlEscape(std::string_view text) {
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
 /// The XDMF sidecar of `file`, written to `sidecar` (a temporary that is renamed afterwards).
 void writeXdmf(const std::filesystem::path& file, const std::filesystem::path& sidecar, const ParticleData& data) {
   const std::string sidecarName = xdmfPath(file).string();
-  // Relative reference: the pair stays valid when the directory is moved or copied.
-  const std::string h5 = xmlEscape(file.filename().string());
-  const Index n = data.count();
-  const auto item = [&](std::string_view dims, std::string_view type, int precision, std::string_view path) {
-    return fmt::format(
-        "        <DataItem Dimensions=\"{}\" NumberType=\"{}\" Precision=\"{}\" Format=\"HDF\">{}:{}</DataItem>\n",
-        dims, type, precision, h5, path);
-  };
-  const std::string vector = fmt::format("{} 3", n);
-  const std::string scalar = fmt::format("{}", n);
-
-  std::string xml;
-  xml += "<?xml version=\"1.0\" ?>\n";
-  xml += "<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n";
-  xml += "<Xdmf Version=\"3.0\">\n";
-  xml += "  <Domain>\n";
-  xml += "    <Grid Name=\"particles\" GridType=\"Uniform\">\n";
-  xml += fmt::format("      <Time Value=\"{:.17g}\"/>\n", data.time);
-  for (const auto& [key, value] : data.attributes) {
-    xml += fmt::format("      <Information Name=\"{}\" Value=\"{}\"/>\n", xmlEscape(key), xmlEscape(value));
-  }
-  xml +=
-      fmt::format("      <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"{}\" NodesPerElement=\"1\"/>\n", n);
-  xml += "      <Geometry GeometryType=\"XYZ\">\n";
-  xml += item(vector, "Float", 8, "/particles/position");
-  xml += "      </Geometry>\n";
-  xml += "      <Attribute Name=\"radius\" AttributeType=\"Scalar\" Center=\"Node\">\n";
-  xml += item(scalar, "Float", 8, "/particles/radius");
-  xml += "      </Attribute>\n";
-  xml += "      <Attribute Name=\"id\" AttributeType=\"Scalar\" Center=\"Node\">\n";
-  xml += item(scalar, "Int", 4, "/particles/id");
-  xml += "      </Attribute>\n";
-  if (data.velocity) {
-    xml += "      <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
-    xml += item(vector, "Float", 8, "/particles/velocity");
-    xml += "      </Attribute>\n";
-  }
-  if (data.angularVelocity) {
-    xml += "      <Attribute Name=\"angular_velocity\" AttributeType=\"Vector\" Center=\"Node\">\n";
-    xml += item(vector, "Float", 8, "/particles/angular_velocity");
-    xml += "      </Attribute>\n";
-  }
-  xml += "    </Grid>\n";
-  xml += "  </Domain>\n";
-  xml += "</Xdmf>\n";
-
+  const std::string xml = xdmfSnapshotXml(xdmfFrameOf(file, data), xdmfPath(file));
   std::ofstream out(sidecar, std::ios::binary | std::ios::trunc);
   if (!out) throw InputError(fmt::format("{}: cannot open for writing: {}", sidecarName, std::strerror(errno)));
   out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
@@ -433,6 +362,51 @@ std::map<std::string, std::string> readParameters(const Context& ctx, hid_t file
   return parameters;
 }
 
+/// The optional arrays: every dataset in /particles other than the built-in ones, N or N x 3 numbers,
+/// in name order.
+std::vector<ParticleArray> readArrays(const Context& ctx, hid_t file, hsize_t n) {
+  std::vector<ParticleArray> arrays;
+  Handle group(H5Gopen2(file, "/particles", H5P_DEFAULT), H5Gclose);
+  if (!group.valid()) ctx.failHdf5("group /particles", "cannot open (is it a group?)");
+  std::vector<std::string> names;
+  const herr_t status = H5Literate(
+      group.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr,
+      [](hid_t, const char* name, const H5L_info_t*, void* out) -> herr_t {
+        try {
+          static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+          return 0;
+        } catch (...) {
+          return -1;
+        }
+      },
+      &names);
+  if (status < 0) ctx.failHdf5("group /particles", "cannot list datasets");
+  for (const std::string& name : names) {
+    if (name == "position" || name == "velocity" || name == "angular_velocity" || name == "radius" || name == "id") {
+      continue;
+    }
+    const std::string path = "/particles/" + name;
+    const Dataset d = openDataset(ctx, file, path);
+    requireNumeric(ctx, d, false);
+    const bool scalar = d.shape.size() == 1 && d.shape[0] == n;
+    const bool vector = d.shape.size() == 2 && d.shape[0] == n && d.shape[1] == 3;
+    if (!scalar && !vector) {
+      ctx.fail(d.label,
+               fmt::format("an extra particle array must have shape {} or {} x 3, got {}", n, n, shapeText(d.shape)));
+    }
+    ParticleArray array{name, Eigen::MatrixXd(scalar ? 1 : 3, static_cast<Eigen::Index>(n))};
+    readInto(ctx, d, H5T_NATIVE_DOUBLE, array.values.data());
+    for (Eigen::Index i = 0; i < array.values.size(); ++i) {
+      if (!std::isfinite(array.values.data()[i])) {
+        ctx.fail(d.label,
+                 fmt::format("particle {}: value {} is not finite", i / array.values.rows(), array.values.data()[i]));
+      }
+    }
+    arrays.push_back(std::move(array));
+  }
+  return arrays;
+}
+
 void validate(const Context& ctx, ParticleData& data) {
   const Index n = data.count();
   const auto particle = [&](Index i) { return fmt::format("particle {} (id {})", i, data.id[std::size_t(i)]); };
@@ -523,6 +497,23 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
     writeDataset(ctx, f, "/particles/radius", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, data.radius.data());
     static_assert(sizeof(Index) == 4, "/particles/id is stored as int32");
     writeDataset(ctx, f, "/particles/id", H5T_STD_I32LE, H5T_NATIVE_INT32, {n}, data.id.data());
+    for (const ParticleArray& array : data.arrays) {
+      const std::string path = "/particles/" + array.name;
+      const auto rows = static_cast<hsize_t>(array.values.rows());
+      // Column-major components x N is row-major N x components, as the vectors above.
+      if (rows == 1) {
+        writeDataset(ctx, f, path.c_str(), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n}, array.values.data());
+      } else {
+        writeDataset(ctx, f, path.c_str(), H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {n, rows}, array.values.data());
+      }
+    }
+  }
+  {
+    // Explicit Polyvertex connectivity for the XDMF readers (xdmf.hpp): 0..N-1, one vertex per cell.
+    const Handle xdmf = createGroup(ctx, f, "/xdmf");
+    std::vector<std::int32_t> vertices(static_cast<std::size_t>(n));
+    for (std::size_t i = 0; i < vertices.size(); ++i) vertices[i] = static_cast<std::int32_t>(i);
+    writeDataset(ctx, f, "/xdmf/polyvertex", H5T_STD_I32LE, H5T_NATIVE_INT32, {n, 1}, vertices.data());
   }
   {
     const Handle box = createGroup(ctx, f, "/box");
@@ -627,6 +618,7 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
   }
   data.time = readTime(ctx, f);
   data.attributes = readParameters(ctx, f);
+  data.arrays = readArrays(ctx, f, n);
   validate(ctx, data);
   return data;
 }

@@ -2,6 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <cctype>
+
 #include "core/errors.hpp"
 
 namespace polydem::io {
@@ -22,6 +25,29 @@ void requireConsistentSizes(const ParticleData& data) {
   }
   if (static_cast<Eigen::Index>(data.id.size()) != n) {
     throw ConfigError(fmt::format("particle data: id has {} entries but radius has {}", data.id.size(), n));
+  }
+  for (std::size_t a = 0; a < data.arrays.size(); ++a) {
+    const ParticleArray& array = data.arrays[a];
+    const bool plain = !array.name.empty() && std::all_of(array.name.begin(), array.name.end(), [](unsigned char c) {
+      return std::isalnum(c) != 0 || c == '_';
+    });
+    if (!plain) {
+      throw ConfigError(fmt::format("particle data: array name '{}' must be letters, digits and '_'", array.name));
+    }
+    for (const char* reserved : {"position", "velocity", "angular_velocity", "radius", "id"}) {
+      if (array.name == reserved) {
+        throw ConfigError(fmt::format("particle data: array name '{}' is taken by a built-in dataset", array.name));
+      }
+    }
+    if ((array.values.rows() != 1 && array.values.rows() != 3) || array.values.cols() != n) {
+      throw ConfigError(fmt::format("particle data: array '{}' is {} x {}, expected 1 or 3 x {}", array.name,
+                                    array.values.rows(), array.values.cols(), n));
+    }
+    for (std::size_t b = 0; b < a; ++b) {
+      if (data.arrays[b].name == array.name) {
+        throw ConfigError(fmt::format("particle data: array '{}' appears twice", array.name));
+      }
+    }
   }
 }
 

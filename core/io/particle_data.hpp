@@ -14,6 +14,14 @@
 
 namespace polydem::io {
 
+/// An optional per-particle output array (force, contact count, ...): `values` is components x N with
+/// 1 or 3 components. HDF5 snapshots store it as /particles/NAME, LAMMPS dumps as extra columns; the
+/// text format does not hold it.
+struct ParticleArray {
+  std::string name;
+  Eigen::MatrixXd values;
+};
+
 /// One configuration as stored in a file. Positions, velocities and radii in SI units.
 struct ParticleData {
   Box box;
@@ -24,14 +32,15 @@ struct ParticleData {
   std::vector<Index> id;                            ///< N, unique, >= 0
   double time = 0.0;                                ///< s
   std::map<std::string, std::string> attributes;    ///< scene parameters, free-form key -> value
+  std::vector<ParticleArray> arrays;                ///< optional output arrays, in the order written
 
   Index count() const { return static_cast<Index>(radius.size()); }
 };
 
 inline constexpr std::array<Boundary, 3> kAllPeriodic = {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic};
 
-/// Throw ConfigError unless position, velocity and angularVelocity (3 x N, if present) and id (N) match
-/// radius (N).
+/// Throw ConfigError unless position, velocity and angularVelocity (3 x N, if present), id (N) and every
+/// array (1 or 3 x N, a unique non-empty name of letters, digits and '_') match radius (N).
 /// Writers call it; the values themselves are not checked (a blown-up state may still be worth saving).
 void requireConsistentSizes(const ParticleData& data);
 
