@@ -17,5 +17,6 @@ Runner addBench(CLI::App& app);
 Runner addPredict(CLI::App& app);
 Runner addMinimise(CLI::App& app);
 Runner addConvert(CLI::App& app);
+Runner addLammpsNeighbor(CLI::App& app);
 
 }  // namespace polydem::app

@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   add(&polydem::app::addBench);
   add(&polydem::app::addPredict);
   add(&polydem::app::addConvert);
+  add(&polydem::app::addLammpsNeighbor);
   add(&polydem::app::addMinimise);
   // --summary-json on the subcommands whose reports feed it (apps/polydem/summary.hpp).
   std::string summaryPath;
