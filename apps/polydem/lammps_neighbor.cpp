@@ -1,7 +1,7 @@
 // polydem lammps-neighbor: the `neighbor ... multi`, `neigh_modify collection/interval` and `comm_modify` lines
 // a LAMMPS user should use for a particle file's size distribution, chosen by the HGrid cost model.
 //
-// Correspondence (LAMMPS `neighbor multi`, Shire, Hanley & Stratford, Comp. Part. Mech. 8 (2021) 1015, as
+// Correspondence (LAMMPS `neighbor multi`, Shire, Hanley & Stratford, Comp. Part. Mech. (2021), as
 // documented for neigh_modify collection/interval): an atom of a finite-size pair style (granular,
 // gran/hooke) has the cutoff 2 r (its diameter) and belongs to the first collection whose upper bound c_h is
 // >= 2 r (LAMMPS stops with "Atom cutoff exceeds interval cutoffs" when no bound is). Collections i, j
@@ -162,7 +162,8 @@ int runLammpsNeighbor(const LammpsNeighborOptions& opt) {
   fmt::print("# cost model (Bottom-Up HGrid, K = {:.3g}): level h <-> collection h, s_h = c_h + skin\n", K);
   for (const std::string& l : lines) fmt::print("{}\n", l);
   auto table = [&](const char* name, const Collections& c) {
-    fmt::print("# {}: {} collections, predicted cost {:.6g} per particle\n", name, c.bounds.size(), c.predicted);
+    fmt::print("# {}: {} collection{}, predicted cost {:.6g} per particle\n", name, c.bounds.size(),
+               c.bounds.size() == 1 ? "" : "s", c.predicted);
     double lower = 0.0;
     for (std::size_t h = 0; h < c.bounds.size(); ++h) {
       const double upper = parsed(c.bounds[h]);
@@ -174,6 +175,7 @@ int runLammpsNeighbor(const LammpsNeighborOptions& opt) {
   table("chosen", chosen);
   table("hand-made doubling", doubling);
   fmt::print("# predicted doubling / chosen = {:.4g}\n", doubling.predicted / chosen.predicted);
+  if (chosen.bounds.size() == 1) fmt::print("# one collection: `neighbor {} bin` does the same search\n", skinText);
   fmt::print(
       "# neigh_modify: checked every step, rebuilt when an atom has moved skin/2 (polydem's rule): safe for\n"
       "# any flow; `every M` > 1 is only safe if the log shows 0 dangerous builds\n");
