@@ -66,6 +66,12 @@ assert sum(counts) == 3000, f"chosen collections hold {sum(counts)} particles, n
 print(f"ok: chosen {c} <= doubling {d}, counts {counts}")
 PY
 
+# One level allowed: the doubling collections are predicted cheaper and become the recommendation.
+"$polydem" lammps-neighbor poly.txt --max-levels 1 > poly_one_level.report
+grep -q "^# the doubling collections are predicted cheaper .* than the optimiser's choice (1 level," \
+  poly_one_level.report || { echo "FAIL: --max-levels 1 does not fall back to doubling"; cat poly_one_level.report; exit 1; }
+check_lines poly_one_level.report "$dmax" 5
+
 "$polydem" lammps-neighbor mono.txt --format lines > mono.lines
 cat mono.lines
 check_lines mono.lines 1.0 1
