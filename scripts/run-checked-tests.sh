@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# run-checked-tests.sh sanitize|debug: the test suite in a checked build (issue 16), run by .ci/run after
-# the README's test command.
+# run-checked-tests.sh sanitize|debug|checked: the test suite in a checked build (issue 16); .ci/run runs
+# `checked` after the README's test command.
 #   sanitize  AddressSanitizer + UndefinedBehaviorSanitizer (every UB report fatal), -O1 -g, in build-sanitize/
 #   debug     CMAKE_BUILD_TYPE=Debug (-Og -g, NDEBUG unset so assert() is live), POLYDEM_ASSERT checks on
 #             (POLYDEM_ENABLE_ASSERTS) and libstdc++'s bounds checks (_GLIBCXX_ASSERTIONS), in build-debug/
+#   checked   both at once: Debug at -O1 with every assert and bounds check, ASan and UBSan, in build-checked/
 # Both skip the tests labelled `slow` (10 s or more each in Release; listed in tests/slow_tests.cmake and
 # at their definitions) and the fuzz targets (scripts/fuzz.sh runs those). No benchmarks are built.
 # Extra arguments go to ctest (e.g. -R Compression).
@@ -26,8 +27,17 @@ case "$mode" in
     flags=(-DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-Og -g -D_GLIBCXX_ASSERTIONS"
            "-DCMAKE_C_FLAGS_DEBUG=-Og -g" -DPOLYDEM_ENABLE_ASSERTS=ON)
     ;;
+  checked)
+    # Both in one build (what .ci/run uses, to stay within its time budget): Debug, asserts and bounds
+    # checks on, and both sanitizers.
+    dir=build-checked
+    flags=(-DCMAKE_BUILD_TYPE=Debug "-DCMAKE_CXX_FLAGS_DEBUG=-O1 -g -D_GLIBCXX_ASSERTIONS" "-DCMAKE_C_FLAGS_DEBUG=-O1 -g"
+           -DPOLYDEM_ENABLE_ASSERTS=ON -DPOLYDEM_SANITIZE=ON)
+    export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=0}"
+    export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+    ;;
   *)
-    echo "usage: scripts/run-checked-tests.sh sanitize|debug [ctest arguments]" >&2
+    echo "usage: scripts/run-checked-tests.sh sanitize|debug|checked [ctest arguments]" >&2
     exit 2
     ;;
 esac
