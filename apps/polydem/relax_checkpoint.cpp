@@ -14,13 +14,14 @@ namespace polydem::app {
 namespace {
 
 std::vector<std::int64_t> asInt64(const std::vector<std::uint64_t>& keys) {
+  // Bit pattern kept. An empty vector may hold a null data(), which memcpy may not be given (UBSan).
   std::vector<std::int64_t> out(keys.size());
-  std::memcpy(out.data(), keys.data(), keys.size() * sizeof(std::uint64_t));  // bit pattern kept
+  if (!keys.empty()) std::memcpy(out.data(), keys.data(), keys.size() * sizeof(std::uint64_t));
   return out;
 }
 std::vector<std::uint64_t> asUint64(const std::vector<std::int64_t>& keys) {
   std::vector<std::uint64_t> out(keys.size());
-  std::memcpy(out.data(), keys.data(), keys.size() * sizeof(std::uint64_t));
+  if (!keys.empty()) std::memcpy(out.data(), keys.data(), keys.size() * sizeof(std::uint64_t));
   return out;
 }
 
