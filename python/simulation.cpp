@@ -20,6 +20,7 @@
 
 #include "apps/polydem/relax.hpp"
 #include "apps/polydem/relax_scene.hpp"
+#include "apps/polydem/summary.hpp"
 #include "core/errors.hpp"
 #include "core/io/safe_output.hpp"
 #include "python/convert.hpp"
@@ -29,44 +30,13 @@ namespace polydem::python {
 
 namespace {
 
-/// A TOML basic string.
-std::string tomlString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          out += fmt::format("\\u{:04x}", static_cast<unsigned>(c));
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
-
 /// One TOML value from a Python scalar or list; `key` names it in errors.
 std::string tomlValue(const py::handle& v, const std::string& key) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>() ? "true" : "false";
   if (py::isinstance<py::int_>(v)) return py::str(v);
   // Python's repr is the shortest text that reads back as the same double, and valid TOML (1e-05, inf, nan).
   if (py::isinstance<py::float_>(v)) return py::repr(py::float_(v.cast<double>()));
-  if (py::isinstance<py::str>(v)) return tomlString(v.cast<std::string>());
+  if (py::isinstance<py::str>(v)) return app::quotedString(v.cast<std::string>());
   if (py::isinstance<py::sequence>(v) || py::hasattr(v, "tolist")) {
     py::object list = py::hasattr(v, "tolist") ? v.attr("tolist")() : py::reinterpret_borrow<py::object>(v);
     if (!py::isinstance<py::list>(list) && !py::isinstance<py::tuple>(list)) return tomlValue(list, key);

@@ -13,9 +13,7 @@
 
 namespace polydem::app {
 
-namespace {
-
-std::string jsonString(std::string_view text) {
+std::string quotedString(std::string_view text) {
   std::string out = "\"";
   for (const char c : text) {
     switch (c) {
@@ -45,6 +43,8 @@ std::string jsonString(std::string_view text) {
   return out + "\"";
 }
 
+namespace {
+
 // fmt's "{}" is the shortest decimal that reads back to the same double; JSON has no NaN or infinity
 // (put() turns those into null with a reason before they get here).
 std::string number(double v) { return std::isfinite(v) ? fmt::format("{}", v) : "null"; }
@@ -54,7 +54,7 @@ struct ValueText {
   std::string operator()(bool b) const { return b ? "true" : "false"; }
   std::string operator()(std::int64_t i) const { return fmt::format("{}", i); }
   std::string operator()(double d) const { return number(d); }
-  std::string operator()(const std::string& s) const { return jsonString(s); }
+  std::string operator()(const std::string& s) const { return quotedString(s); }
   std::string operator()(const std::vector<double>& v) const {
     std::string out = "[";
     for (std::size_t k = 0; k < v.size(); ++k) out += (k ? ", " : "") + number(v[k]);
@@ -70,7 +70,7 @@ struct ValueText {
 std::string cellText(const SummaryJson::Cell& cell) {
   if (const auto* i = std::get_if<std::int64_t>(&cell)) return fmt::format("{}", *i);
   if (const auto* d = std::get_if<double>(&cell)) return number(*d);
-  return jsonString(std::get<std::string>(cell));
+  return quotedString(std::get<std::string>(cell));
 }
 
 // The dotted keys as a tree, children in first-put order; a node holds a value, a table or children.
@@ -95,7 +95,7 @@ void writeNode(const Node& node, int depth, std::string& out) {
   out += "{\n";
   for (std::size_t k = 0; k < node.children.size(); ++k) {
     const Node& c = *node.children[k];
-    out += indent + jsonString(c.name) + ": ";
+    out += indent + quotedString(c.name) + ": ";
     if (!c.children.empty()) {
       writeNode(c, depth + 1, out);  // a key that is also a group keeps the group (put() prevents both)
     } else if (!c.tableText.empty()) {
@@ -202,7 +202,7 @@ std::string SummaryJson::toJson() const {
   for (const auto& [key, value] : entries_) nodeAt(root, key).value = &value;
   for (const auto& [key, table] : tables_) {
     std::string text = "{\"columns\": [";
-    for (std::size_t k = 0; k < table.columns.size(); ++k) text += (k ? ", " : "") + jsonString(table.columns[k]);
+    for (std::size_t k = 0; k < table.columns.size(); ++k) text += (k ? ", " : "") + quotedString(table.columns[k]);
     text += "], \"rows\": [";
     for (std::size_t r = 0; r < table.rows.size(); ++r) {
       text += r ? ",\n    [" : "\n    [";

@@ -75,6 +75,10 @@ SummaryJson::Cell cell(const T& value) {
   }
 }
 
+/// `text` as a double-quoted string with \" \\ \n \t \r and \uXXXX escapes: a JSON string, and equally
+/// a TOML basic string (the two formats share these escapes).
+std::string quotedString(std::string_view text);
+
 /// The summary of this process's run (one subcommand per process).
 SummaryJson& summary();
 
