@@ -20,7 +20,8 @@
 # Environment: POLYDEM_BUILD (build dir, default build), LMP (lmp), COUNT (particles, 50000), STEPS (1000),
 # REPEATS (5), WORKDIR (scratch, default $POLYDEM_BUILD/lammps_neighbor_compare), OUT (summary CSV, default
 # docs/benchmarks/lammps_neighbor.csv; the per-run CSV goes beside it as *_runs.csv), REUSE=1 (keep a start
-# already prepared in WORKDIR), REBUILD (check: `check yes`, the default; always: `check no`).
+# already prepared in WORKDIR; the model's lines are written again), COST_RATIO (--cost-ratio of
+# `polydem lammps-neighbor`, default its own), REBUILD (check: `check yes`, the default; always: `check no`).
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -78,8 +79,10 @@ prepare() {
            --collections --restitution "$restitution" --stiffness "$stiffness")
   damping=$(sed -n 's/.*damping=\([a-z]*\).*/\1/p' <<< "$info")
   dampcoeff=$(sed -n 's/.*dampcoeff=\([^ ]*\).*/\1/p' <<< "$info")
-  "$polydem" lammps-neighbor "$start" --skin "$skin" --pair granular > "$dir/model_report.lmp"
-  "$polydem" lammps-neighbor "$start" --skin "$skin" --pair granular --format lines > "$dir/neigh_model.lmp"
+  "$polydem" lammps-neighbor "$start" --skin "$skin" --pair granular ${COST_RATIO:+--cost-ratio "$COST_RATIO"} \
+    > "$dir/model_report.lmp"
+  "$polydem" lammps-neighbor "$start" --skin "$skin" --pair granular ${COST_RATIO:+--cost-ratio "$COST_RATIO"} \
+    --format lines > "$dir/neigh_model.lmp"
   # The hand-made set: the same lines with the doubling collections.
   sed "s|collection/interval .*|collection/interval $(sed -n 's/^collections=//p' <<< "$info")|" \
     "$dir/neigh_model.lmp" > "$dir/neigh_doubling.lmp"
