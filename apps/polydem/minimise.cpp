@@ -15,6 +15,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/minimise_scene.hpp"
 #include "apps/polydem/validators.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
@@ -29,6 +30,7 @@ namespace polydem::app {
 namespace {
 
 struct MinimiseOptions {
+  std::string scene;  ///< TOML file with a [minimise] table (apps/polydem/minimise_scene.hpp)
   // start
   std::string input;
   DistributionSpec dist;
@@ -65,6 +67,9 @@ struct MinimiseOptions {
 };
 
 void addOptions(CLI::App* cmd, MinimiseOptions* o) {
+  cmd->add_option("scene", o->scene,
+                  "TOML scene with a [minimise] table: keys are the long options with _ for - (e.g. "
+                  "target_pressure = 1e-6); options on the command line override it");
   cmd->add_option("-i,--input", o->input, "start from this particle file (e.g. a `polydem jam` packing)");
   addDistributionOptions(*cmd, o->dist, o->fractionKind);
   cmd->add_option("-n,--count", o->count, "number of spheres of a sampled start (at least 2)")
@@ -280,7 +285,8 @@ void printState(const char* label, const integrators::MinimiserReport& r) {
              r.residual, r.contacts + r.wallContacts, r.reducedPressure, r.packingFraction);
 }
 
-int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
+int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
+  if (!o.scene.empty()) applyMinimiseScene(o.scene, cmd, {"input", "output"});
   installInterruptHandlers();
   if (cmd.count("--max-step") && o.maxStep < o.initialStep) {
     throw ConfigError(fmt::format("--max-step {:g} is below --initial-step {:g}", o.maxStep, o.initialStep));
@@ -298,6 +304,7 @@ int runMinimise(MinimiseOptions& o, const CLI::App& cmd) {
   if (!o.output.empty()) {
     std::vector<std::filesystem::path> inputs;
     if (!o.input.empty()) inputs.emplace_back(o.input);
+    if (!o.scene.empty()) inputs.emplace_back(o.scene);
     io::checkOutputPath(o.output, "--output", inputs);
   }
   Start start = makeStart(o, cmd);

@@ -52,3 +52,36 @@ polydem_cli_test(NAME minimise_jam_soft_hertz COMMAND minimise -n 128 --phi0 0.6
 add_test(NAME cli_minimise_interrupt
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_interrupt.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_minimise_interrupt PROPERTIES TIMEOUT 60 LABELS "cli;minimise")
+# Scene files (minimise_scene.sh for equivalence, overrides, relative paths and the example's keys; the
+# bad-scene classes below: each names the file, the line and the key).
+add_test(NAME cli_minimise_scene
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/minimise_scene.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK}
+                 ${PROJECT_SOURCE_DIR}/examples/minimise_uv10.toml)
+set_tests_properties(cli_minimise_scene PROPERTIES TIMEOUT 120 LABELS "cli;minimise")
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_unknown.toml "[minimise]\ncount = 20\ntarget_presure = 1e-4\n")
+polydem_cli_test(NAME minimise_scene_unknown_key COMMAND minimise minimise_scene_unknown.toml EXIT 2
+                 PASS "minimise_scene_unknown.toml: line 3: unknown key minimise.target_presure .valid: .*target_pressure"
+                 FAIL "FIRE" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_range.toml "[minimise]\ncount = 20\ntarget_pressure = 2.0\n")
+polydem_cli_test(NAME minimise_scene_bad_value COMMAND minimise minimise_scene_range.toml EXIT 2
+                 PASS "minimise_scene_range.toml: line 3: minimise.target_pressure = 2: " FAIL "FIRE" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_type.toml "[minimise]\ncount = [20, 30]\n")
+polydem_cli_test(NAME minimise_scene_bad_type COMMAND minimise minimise_scene_type.toml EXIT 2
+                 PASS "line 2: minimise.count must be a number or a string" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_word.toml "[minimise]\ncount = 20\nlaw = \"spring\"\n")
+polydem_cli_test(NAME minimise_scene_bad_choice COMMAND minimise minimise_scene_word.toml EXIT 2
+                 PASS "line 3: minimise.law = spring: " LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_section.toml "[minimise]\ncount = 20\n[relax]\nsteps = 10\n")
+polydem_cli_test(NAME minimise_scene_other_section COMMAND minimise minimise_scene_section.toml EXIT 2
+                 PASS "line 3: unknown section 'relax'" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_empty.toml "count = 20\n")
+polydem_cli_test(NAME minimise_scene_no_table COMMAND minimise minimise_scene_empty.toml EXIT 2
+                 PASS "unknown key 'count'" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_syntax.toml "[minimise]\ncount = = 20\n")
+polydem_cli_test(NAME minimise_scene_syntax COMMAND minimise minimise_scene_syntax.toml EXIT 2
+                 PASS "minimise_scene_syntax.toml:2:" LABELS minimise)
+polydem_cli_test(NAME minimise_scene_missing COMMAND minimise no_such_scene.toml EXIT 2
+                 PASS "no_such_scene.toml: cannot open scene file" LABELS minimise)
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_self.toml "[minimise]\ncount = 20\noutput = \"minimise_scene_self.toml\"\n")
+polydem_cli_test(NAME minimise_scene_output_is_scene COMMAND minimise minimise_scene_self.toml EXIT 2
+                 PASS "--output" FAIL "FIRE" LABELS minimise)
