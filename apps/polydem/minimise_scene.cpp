@@ -1,11 +1,11 @@
 #include "apps/polydem/minimise_scene.hpp"
 
 #include <fmt/format.h>
+#include <toml++/toml.h>
 
 #include <fstream>
 #include <optional>
 #include <sstream>
-#include <toml++/toml.h>
 #include <vector>
 
 #include "core/errors.hpp"
@@ -73,8 +73,8 @@ void applyMinimiseScene(const std::filesystem::path& file, CLI::App& cmd, const 
     }
     std::optional<std::string> value = asArgument(node);
     if (!value) {
-      throw ConfigError(fmt::format("{}: {}: minimise.{} must be a number or a string", file.string(), lineOf(node),
-                                    name));
+      throw ConfigError(
+          fmt::format("{}: {}: minimise.{} must be a number or a string", file.string(), lineOf(node), name));
     }
     if (option->count() > 0) continue;  // the command line wins
     if (pathKeys.count(name) && !value->empty() && std::filesystem::path(*value).is_relative()) {
@@ -84,8 +84,8 @@ void applyMinimiseScene(const std::filesystem::path& file, CLI::App& cmd, const 
       option->add_result(*value);
       option->run_callback();
     } catch (const CLI::Error& e) {
-      throw ConfigError(fmt::format("{}: {}: minimise.{} = {}: {}", file.string(), lineOf(node), name, *value,
-                                    e.what()));
+      throw ConfigError(
+          fmt::format("{}: {}: minimise.{} = {}: {}", file.string(), lineOf(node), name, *value, e.what()));
     }
   }
 }
