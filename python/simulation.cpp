@@ -139,8 +139,11 @@ class PySimulation {
     }
     context_ = app::contextFrom(checkpoint, overrides);
     scene_ = app::parseRelaxScene(context_.sceneText, context_.overrides, context_.sceneSource);
-    inputs_.push_back(file);
+    // As `relax --resume`: the scene file and the particle file are inputs; the checkpoint may be checkpointed
+    // over again, but never written over by a particle file.
+    inputs_.push_back(context_.sceneSource);
     if (!scene_.particleFile.empty()) inputs_.push_back(scene_.resolve(scene_.particleFile));
+    resumedFrom_ = file;
     py::gil_scoped_release release;
     const integrators::DemState state = app::stateFrom(checkpoint);
     const std::string phase = checkpoint.string("phase");
@@ -204,7 +207,9 @@ class PySimulation {
 
   /// Write the current state as output.final is written; never over one of the run's inputs.
   void write(const std::filesystem::path& file) const {
-    io::checkOutputPath(file, "file", inputs_);
+    std::vector<std::filesystem::path> against = inputs_;
+    if (!resumedFrom_.empty()) against.push_back(resumedFrom_);
+    io::checkOutputPath(file, "file", against);
     const io::ParticleData data = snapshot();
     py::gil_scoped_release release;
     io::writeParticles(file, data);
@@ -236,6 +241,7 @@ class PySimulation {
   app::RelaxScene scene_;
   app::RunContext context_;
   std::vector<std::filesystem::path> inputs_;
+  std::filesystem::path resumedFrom_;  ///< the checkpoint this run continues, if any
   std::optional<std::string> targetNotReached_;
   std::unique_ptr<integrators::DemSimulation> sim_;
 };

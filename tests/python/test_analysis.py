@@ -14,7 +14,7 @@ N = 100
 def packing(cli, tmp_path_factory):
     """A jammed packing written by the CLI (with velocities, for the speed rattlers)."""
     path = tmp_path_factory.mktemp("packing") / "j.txt"
-    cli("jam", "-n", N, "--target-pressure", "1e8", "--seed", "2", "--velocities", "-o", path)
+    cli("jam", "-n", N, "--target-pressure", "1e6", "--seed", "2", "--velocities", "-o", path)
     return path
 
 

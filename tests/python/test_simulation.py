@@ -214,7 +214,7 @@ def test_resume_a_cli_checkpoint_of_the_soft_compression(cli, tmp_path):
     }
     scene_file = tmp_path / "scene.toml"
     scene_file.write_text(polydem.scene_toml(scene) + '[output]\ncheckpoint = "ck.h5"\ncheckpoint_interval = 2000\n')
-    proc = subprocess.Popen([os.environ["POLYDEM_CLI"], "relax", str(scene_file), "-q"], cwd=tmp_path,
+    proc = subprocess.Popen([os.path.abspath(os.environ["POLYDEM_CLI"]), "relax", str(scene_file), "-q"], cwd=tmp_path,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     deadline = time.monotonic() + 60
     while not (tmp_path / "ck.h5").exists() and proc.poll() is None and time.monotonic() < deadline:
@@ -241,6 +241,12 @@ def test_resume_refuses_what_would_change_the_run(tmp_path):
     sim.save_checkpoint(checkpoint)
     with pytest.raises(polydem.ConfigError, match="would change the trajectory"):
         polydem.Simulation.resume(checkpoint, overrides=["contact.friction=0.1"])
+    resumed = polydem.Simulation.resume(checkpoint, overrides=["run.steps=20"])
+    resumed.run()
+    resumed.save_checkpoint(checkpoint)  # a resumed run checkpoints into its file again, as the CLI's
+    assert polydem.Simulation.resume(checkpoint).step_count == 20
+    with pytest.raises(polydem.ConfigError, match="ck.h5"):
+        resumed.write(checkpoint)  # but no particle file goes over it
     with pytest.raises(polydem.InputError):
         polydem.Simulation.resume(tmp_path / "missing.h5")
     (tmp_path / "bad.h5").write_text("not a checkpoint")
