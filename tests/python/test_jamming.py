@@ -47,21 +47,28 @@ def test_analyze_needs_a_pressure():
     assert not polydem.check_packing({k: overlapping[k] for k in ("positions", "radii", "box")})["valid"]
 
 
-def test_jam_ctrl_c_stops_at_a_block_boundary():
+def test_jam_ctrl_c_stops_at_a_block_boundary(tmp_path):
     import os
     import signal
     import threading
     import time
 
+    checkpoint = tmp_path / "ck.h5" if polydem.with_hdf5 else None
     timer = threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT))
     start = time.monotonic()
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            polydem.jam(polydem.Distribution("uv", rmin=1, omega=3), count=2000, seed=1, target_pressure=1e11)
+            polydem.jam(polydem.Distribution("uv", rmin=1, omega=3), count=2000, seed=1, target_pressure=1e11,
+                        checkpoint=checkpoint)
     finally:
         timer.cancel()
     assert time.monotonic() - start < 60
+    if checkpoint:
+        # The checkpoint was written at the boundary where the run stopped: it goes on from there.
+        assert checkpoint.exists()
+        r = polydem.resume_jam(checkpoint, stop_after_blocks=1)
+        assert r["interrupted"] and r["positions"].shape == (2000, 3)
 
 
 def test_jam_writes_the_cli_file(cli, tmp_path):
