@@ -147,4 +147,30 @@ LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::V
   return out;
 }
 
+LeakTestResult testPressureLeakWithout(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
+                                       const std::vector<char>& rattler, Index removed,
+                                       const LeakTestOptions& options) {
+  if (removed < 0) return testPressureLeak(position, radius, box, rattler, options);
+  const Index n = static_cast<Index>(radius.size());
+  if (removed >= n) {
+    throw ConfigError(fmt::format("leak test: sphere {} to remove, but there are {} spheres", removed, n));
+  }
+  if (!rattler.empty() && static_cast<Index>(rattler.size()) != n) {
+    throw ConfigError(fmt::format("leak test: {} rattler flags for {} spheres", rattler.size(), n));
+  }
+  Eigen::Matrix3Xd x = position;
+  Eigen::VectorXd r = radius;
+  std::vector<char> watched = rattler;
+  const Index last = n - 1;
+  x.col(removed) = x.col(last);
+  r[removed] = r[last];
+  x.conservativeResize(3, last);
+  r.conservativeResize(last);
+  if (!watched.empty()) {
+    watched[static_cast<std::size_t>(removed)] = watched[static_cast<std::size_t>(last)];
+    watched.pop_back();
+  }
+  return testPressureLeak(x, r, box, watched, options);
+}
+
 }  // namespace polydem::jamming

@@ -67,4 +67,10 @@ struct LeakTestResult {
 LeakTestResult testPressureLeak(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
                                 const std::vector<char>& rattler, const LeakTestOptions& options);
 
+/// The test without sphere `removed` (a deliberate defect: the hole of a backbone sphere): the last sphere
+/// takes its number, so block maxSphere indices refer to that renumbering. removed < 0: testPressureLeak
+/// itself. Throws ConfigError unless removed < N.
+LeakTestResult testPressureLeakWithout(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius, const Box& box,
+                                       const std::vector<char>& rattler, Index removed, const LeakTestOptions& options);
+
 }  // namespace polydem::jamming

@@ -27,6 +27,7 @@ void bindBroadPhase(py::module_& m);
 void bindSimulation(py::module_& m);
 void bindJamming(py::module_& m);
 void bindIo(py::module_& m);
+void bindAnalysis(py::module_& m);
 
 using DoubleArray = py::array_t<double, py::array::forcecast>;
 using IndexArray = py::array_t<Index, py::array::forcecast>;

@@ -9,5 +9,8 @@ namespace polydem::python {
 py::dict particleDict(const io::ParticleData& data);
 /// The inverse; positions, radii and box required, id defaults to 0..N-1. Throws ConfigError naming the key.
 io::ParticleData particleData(const py::dict& d);
+/// A particle dict, or a file name read as `polydem analyze FILE` reads it (GIL released); `name` receives
+/// "packing" or the file name, for messages.
+io::ParticleData particlesFrom(const py::object& packing, std::string& name);
 
 }  // namespace polydem::python

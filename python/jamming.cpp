@@ -6,13 +6,17 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <chrono>
 #include <cmath>
 #include <optional>
 
 #include "apps/polydem/analyze.hpp"
+#include "apps/polydem/jam.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
+#include "core/io/checkpoint.hpp"
 #include "core/io/particle_file.hpp"
+#include "core/io/safe_output.hpp"
 #include "edmd/compression.hpp"
 #include "edmd/hard_sphere_system.hpp"
 #include "jamming/contact_network.hpp"
@@ -76,143 +80,299 @@ py::dict progressDict(const edmd::Progress& p) {
   return d;
 }
 
-/// Input of analyze: a particle dict, or a file name (read as `polydem analyze FILE` reads it).
-io::ParticleData packingFrom(const py::object& packing, std::string& name) {
-  if (py::isinstance<py::dict>(packing)) {
-    name = "packing";
-    return particleData(packing.cast<py::dict>());
+/// A jam run as jam.cpp's runJam makes it, without its printing: the settings, the start, the system, the
+/// compression state.
+struct PyJam {
+  app::JamOptions opt;
+  edmd::CompressionOptions copt;
+  io::ParticleData start;
+  std::string origin;  ///< saved into checkpoints (a resumed run keeps the first run's)
+  std::vector<std::filesystem::path> inputs;
+  std::unique_ptr<edmd::HardSphereSystem> system;
+  edmd::CompressionState cstate;
+};
+
+py::dict fixedDensityDict(const edmd::EquilibriumRun& eq, double collisions, double compressionEnd) {
+  py::dict d;
+  d["collisions_per_particle"] = collisions;
+  d["reduced_pressure"] = eq.pressure;
+  d["compression_end_pressure"] = compressionEnd;
+  d["collisions_per_second"] = eq.collisionsPerSecond;
+  d["wall_seconds"] = eq.wallSeconds;
+  return d;
+}
+
+/// The compression (checkpoints at block boundaries as the CLI writes them), the fixed-density run, the
+/// contact network and the output; then the dict, or the exception that stopped the run (Ctrl-C, a callback's).
+py::dict runJam(PyJam& run, const std::function<void(py::dict)>& progress) {
+  const app::JamOptions& opt = run.opt;
+  // Python callbacks and signals are handled with the GIL taken back, at block boundaries; an error there
+  // stops the compression at the boundary and is raised after the checkpoint and the output are written.
+  std::optional<py::error_already_set> failure;
+  std::vector<double> eosPhi, eosZ, eosRate, eosCollisions, eosTime;
+  const std::function<void(const edmd::Progress&)> onBlock = [&](const edmd::Progress& p) {
+    eosPhi.push_back(p.packingFraction);
+    eosZ.push_back(p.pressure);
+    eosRate.push_back(p.rate);
+    eosCollisions.push_back(p.collisionsPerParticle);
+    eosTime.push_back(p.time);
+    if (!progress || failure) return;
+    py::gil_scoped_acquire acquire;
+    try {
+      progress(progressDict(p));
+    } catch (py::error_already_set& e) {
+      failure.emplace(std::move(e));
+    }
+  };
+  auto signalled = [&] {
+    if (failure) return true;
+    py::gil_scoped_acquire acquire;
+    if (PyErr_CheckSignals() != 0) failure.emplace();
+    return failure.has_value();
+  };
+  auto sinceCheckpoint = std::chrono::steady_clock::now();
+  const edmd::BoundaryHook atBoundary = [&](edmd::HardSphereSystem& sys, const edmd::CompressionState& cs) {
+    const bool testStop = opt.stopAfterBlocks > 0 && cs.blocks >= opt.stopAfterBlocks;
+    const bool stop = signalled() || testStop;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - sinceCheckpoint).count();
+    if (!opt.checkpoint.empty() && (stop || elapsed >= opt.checkpointInterval)) {
+      io::writeCheckpoint(opt.checkpoint, app::jamCheckpoint(opt, run.origin, run.start, sys, cs, 0));
+      sinceCheckpoint = std::chrono::steady_clock::now();
+    }
+    return stop;
+  };
+  app::JamSummary summary;
+  edmd::CompressionResult result;
+  std::optional<edmd::EquilibriumRun> fixed;
+  double compressionEnd = 0.0;
+  {
+    py::gil_scoped_release release;
+    result = edmd::compress(*run.system, run.copt, onBlock, atBoundary, &run.cstate);
+    summary.stopReason = result.stopReason;
+    summary.interrupted = summary.stopReason == "interrupted";
+    summary.pressure = result.last.pressure;
+    compressionEnd = summary.pressure;
+    if (opt.runCollisions > 0.0 && !summary.interrupted) {
+      fixed = edmd::runAtFixedDensity(*run.system, opt.runCollisions, 100.0, signalled);
+      if (failure) {
+        summary.interrupted = true;
+        summary.stopReason = "interrupted (during --run-collisions)";
+      }
+      summary.pressure = fixed->pressure;
+    }
+    app::analysePacking(opt, *run.system, summary);
+    summary.targetReached = result.targetReached && !summary.interrupted;
+    if (!opt.output.empty()) {
+      io::writeParticles(opt.output,
+                         app::packingRecord(opt, run.copt, run.start, *run.system, summary, result.counts.collisions));
+    }
   }
-  const auto file = packing.cast<std::filesystem::path>();
-  name = file.string();
-  py::gil_scoped_release release;
-  return io::readParticles(file);
+  if (failure) throw std::move(*failure);
+  const edmd::HardSphereSystem& system = *run.system;
+  py::dict out;
+  out["positions"] = copyOut(summary.x);
+  out["radii"] = copyOut(summary.r);
+  out["id"] = copyOut(run.start.id);
+  out["box"] = py::cast(system.box());
+  out["packing_fraction"] = summary.phi;
+  out["pressure"] = summary.pressure;
+  out["phi_j_estimate"] = finiteOrNone(summary.phiJ);
+  out["target_reached"] = summary.targetReached;
+  out["interrupted"] = summary.interrupted;
+  out["stop_reason"] = summary.stopReason;
+  out["collisions"] = result.counts.collisions;
+  out["blocks"] = result.last.blocks;
+  out["wall_seconds"] = result.wallSeconds;
+  out["schedule"] = edmd::formatSchedule(run.copt.schedule);
+  out["origin"] = run.origin;
+  out["attributes"] = py::cast(run.start.attributes);
+  out["network"] = networkDict(summary.net, summary.contactOptions);
+  out["fixed_density"] =
+      fixed ? py::object(fixedDensityDict(*fixed, opt.runCollisions, compressionEnd)) : py::object(py::none());
+  // The --eos-csv columns of the blocks this call ran (a resumed run: those after the checkpoint).
+  py::dict eos;
+  eos["phi"] = py::array_t<double>(static_cast<py::ssize_t>(eosPhi.size()), eosPhi.data());
+  eos["Z"] = py::array_t<double>(static_cast<py::ssize_t>(eosZ.size()), eosZ.data());
+  eos["rate"] = py::array_t<double>(static_cast<py::ssize_t>(eosRate.size()), eosRate.data());
+  eos["collisions_per_particle"] =
+      py::array_t<double>(static_cast<py::ssize_t>(eosCollisions.size()), eosCollisions.data());
+  eos["time"] = py::array_t<double>(static_cast<py::ssize_t>(eosTime.size()), eosTime.data());
+  out["eos"] = eos;
+  out["output"] = opt.output.empty() ? py::object(py::none()) : py::object(py::str(opt.output));
+  out["checkpoint"] = opt.checkpoint.empty() ? py::object(py::none()) : py::object(py::str(opt.checkpoint));
+  return out;
+}
+
+std::string boundaryText(const std::array<Boundary, 3>& b) {
+  std::string text;
+  for (std::size_t k = 0; k < 3; ++k)
+    text += std::string(k ? "," : "") + (b[k] == Boundary::Periodic ? "periodic" : "wall");
+  return text;
+}
+
+/// Outputs checked before any work, as the CLI checks them: never an input, never each other.
+void checkJamOutputs(const PyJam& run, const std::filesystem::path& resumed) {
+  std::vector<std::filesystem::path> against = run.inputs;
+  if (!resumed.empty()) against.push_back(resumed);
+  if (!run.opt.output.empty()) io::checkOutputPath(run.opt.output, "output", against);
+  if (!run.opt.checkpoint.empty()) {
+    io::checkOutputPath(run.opt.checkpoint, "checkpoint", run.inputs);
+    if (!run.opt.output.empty() && io::samePath(run.opt.output, run.opt.checkpoint)) {
+      throw ConfigError(fmt::format("checkpoint '{}': the same file as the output", run.opt.checkpoint));
+    }
+  }
+}
+
+py::dict jam(const std::shared_ptr<Distribution>& distribution, Index count, double initialPhi,
+             const py::object& boundaries, const std::string& sampling, std::uint64_t seed, const py::object& packing,
+             double reopen, const std::string& equivalent, const std::optional<std::string>& schedule,
+             double targetPressure, double targetPhi, double maxCollisions, double block, const std::string& broadPhase,
+             double neighbourhoodScale, double skinCap, double contactGap, double runCollisions,
+             const std::optional<std::filesystem::path>& output, bool velocities,
+             const std::optional<std::filesystem::path>& checkpoint, double checkpointInterval,
+             std::int64_t stopAfterBlocks, const std::function<void(py::dict)>& progress) {
+  PyJam run;
+  app::JamOptions& opt = run.opt;
+  opt.count = count;
+  opt.initialPhi = initialPhi;
+  opt.boundaries = boundaryText(boundariesFrom(boundaries));
+  opt.sampling = sampling;
+  opt.seed = seed;
+  opt.reopen = reopen;
+  opt.equivalent = equivalent;
+  if (schedule) opt.schedule = *schedule;
+  opt.targetPressure = targetPressure;
+  opt.targetPhi = targetPhi;
+  opt.maxCollisions = maxCollisions;
+  opt.block = block;
+  opt.broadPhase = broadPhase;
+  opt.neighbourhoodScale = neighbourhoodScale;
+  opt.skinCap = skinCap;
+  opt.contactGap = contactGap;
+  opt.runCollisions = runCollisions;
+  opt.output = output ? output->string() : std::string();
+  opt.writeVelocities = velocities;
+  opt.checkpoint = checkpoint ? checkpoint->string() : std::string();
+  opt.checkpointInterval = checkpointInterval;
+  opt.stopAfterBlocks = stopAfterBlocks;
+  // The CLI's option checks, named by the Python arguments.
+  if (sampling != "systematic" && sampling != "random") {
+    throw ConfigError(fmt::format("sampling '{}': expected systematic or random", sampling));
+  }
+  if (equivalent != "none" && equivalent != "bi" && equivalent != "tri") {
+    throw ConfigError(fmt::format("equivalent '{}': expected none, bi or tri", equivalent));
+  }
+  if (!(initialPhi > 0.0 && initialPhi < 1.0))
+    throw ConfigError(fmt::format("initial_phi {}: outside (0, 1)", initialPhi));
+  if (reopen != 0.0 && !(std::isfinite(reopen) && reopen >= 10.0)) {
+    throw ConfigError(fmt::format("reopen {}: a reduced pressure >= 10 (or 0: no reopening)", reopen));
+  }
+  if (block != 0.0 && !(block >= 1.0 && block <= 1e6)) {
+    throw ConfigError(
+        fmt::format("block {}: must be 0 (automatic) or 1 to 1e6 collisions per particle (smaller blocks spend the run "
+                    "synchronising)",
+                    block));
+  }
+  if (!(std::isfinite(runCollisions) && runCollisions >= 0.0 && runCollisions <= 1e9)) {
+    throw ConfigError(fmt::format("run_collisions {}: outside [0, 1e9]", runCollisions));
+  }
+  if (!(std::isfinite(checkpointInterval) && checkpointInterval > 0.0)) {
+    throw ConfigError(fmt::format("checkpoint_interval {}: must be > 0 seconds", checkpointInterval));
+  }
+  if (stopAfterBlocks < 0) throw ConfigError(fmt::format("stop_after_blocks {}: must be >= 0", stopAfterBlocks));
+  run.copt = app::compressionOptions(opt);
+  std::string name = "packing";
+  if (!packing.is_none()) {
+    if (distribution) throw ConfigError("jam: give either a distribution or a start packing, not both");
+    if (equivalent != "none") {
+      throw ConfigError("equivalent applies to the random start (a distribution); it cannot be combined with packing");
+    }
+    run.start = particlesFrom(packing, name);
+    if (!py::isinstance<py::dict>(packing)) {
+      opt.input = name;
+      run.inputs.emplace_back(name);
+    }
+    run.origin = name;
+    if (reopen > 0.0) run.origin += app::reopenStart(run.start, reopen, name);
+  } else {
+    if (!distribution) throw ConfigError("jam: give a distribution (with count) or a start packing");
+    if (reopen > 0.0) throw ConfigError("reopen needs packing (a jammed packing)");
+  }
+  checkJamOutputs(run, {});
+  {
+    py::gil_scoped_release release;
+    if (packing.is_none()) run.start = app::sampledStart(distribution->get(), opt, run.origin);
+    run.system = app::startedSystem(opt, run.copt, run.start, name);
+  }
+  return runJam(run, progress);
+}
+
+py::dict resumeJam(const std::filesystem::path& file, const std::optional<double>& checkpointInterval,
+                   std::int64_t stopAfterBlocks, const std::function<void(py::dict)>& progress) {
+  PyJam run;
+  io::Checkpoint saved;
+  {
+    py::gil_scoped_release release;
+    saved = io::readCheckpoint(file, "jam");
+  }
+  if (saved.integerScalar("format") != app::kJamCheckpointFormat) {
+    throw InputError(fmt::format("{}: jam checkpoint format {} (this polydem reads format {})", file.string(),
+                                 saved.integerScalar("format"), app::kJamCheckpointFormat));
+  }
+  app::JamOptions& opt = run.opt;
+  app::getSettings(saved, opt);
+  opt.checkpoint = file.string();  // a resumed run keeps checkpointing into the file it resumed from
+  opt.eosCsv.clear();              // the EOS rows come back in the result, no table is kept
+  if (checkpointInterval) {
+    if (!(std::isfinite(*checkpointInterval) && *checkpointInterval > 0.0)) {
+      throw ConfigError(fmt::format("checkpoint_interval {}: must be > 0 seconds", *checkpointInterval));
+    }
+    opt.checkpointInterval = *checkpointInterval;
+  }
+  if (stopAfterBlocks < 0) throw ConfigError(fmt::format("stop_after_blocks {}: must be >= 0", stopAfterBlocks));
+  opt.stopAfterBlocks = stopAfterBlocks;
+  run.copt = app::compressionOptions(opt);
+  if (!opt.input.empty()) run.inputs.emplace_back(opt.input);
+  checkJamOutputs(run, file);
+  run.start = app::getStartRecord(saved);
+  run.origin = saved.string("origin");
+  {
+    py::gil_scoped_release release;
+    run.system = app::restoreSystem(saved, file.string(), opt, run.start);
+  }
+  run.cstate = app::getCompressionState(saved);
+  return runJam(run, progress);
 }
 
 }  // namespace
 
 void bindJamming(py::module_& m) {
-  m.def(
-      "jam",
-      [](const std::shared_ptr<Distribution>& distribution, Index count, double initialPhi,
-         const py::object& boundaries, const std::string& sampling, std::uint64_t seed, const py::object& packing,
-         const std::optional<std::string>& schedule, double targetPressure, double targetPhi, double maxCollisions,
-         double block, const std::string& broadPhase, double neighbourhoodScale, double skinCap, double contactGap,
-         const std::function<void(py::dict)>& progress) {
-        // The start: a packing dict (positions, radii, box), or makeStartPacking of the distribution as the CLI.
-        io::ParticleData start;
-        if (!packing.is_none()) {
-          if (distribution) throw ConfigError("jam: give either a distribution or a start packing, not both");
-          start = particleData(packing.cast<py::dict>());
-        } else {
-          if (!distribution) throw ConfigError("jam: give a distribution (with count) or a start packing");
-          if (count < 2) {
-            throw ConfigError(
-                fmt::format("count {}: a compression needs at least 2 spheres (a lone sphere has no binary "
-                            "collisions, so neither a pressure nor a collision budget ends its run)",
-                            count));
-          }
-          StartPackingRequest request;
-          request.count = count;
-          if (sampling != "systematic" && sampling != "random") {
-            throw ConfigError(fmt::format("sampling '{}': expected systematic or random", sampling));
-          }
-          request.sampling = sampling == "random" ? Sampling::Random : Sampling::Systematic;
-          request.packingFraction = initialPhi;
-          request.boundaries = boundariesFrom(boundaries);
-          request.seed = seed;
-          py::gil_scoped_release release;
-          StartPacking s = makeStartPacking(distribution->get(), request);
-          start.box = s.configuration.box;
-          start.position = std::move(s.configuration.position);
-          start.radius = std::move(s.configuration.radius);
-          start.id = std::move(s.id);
-          start.attributes["distribution"] = s.distribution;
-        }
-        edmd::CompressionOptions copt;
-        if (schedule) copt.schedule = edmd::parseSchedule(*schedule);
-        copt.targetPressure = targetPressure;
-        copt.targetPackingFraction = targetPhi;
-        copt.maxCollisionsPerParticle = maxCollisions;
-        copt.blockCollisionsPerParticle = block;
-        edmd::SystemOptions sopt;
-        sopt.broadPhase = broadPhase;
-        sopt.neighbourhoodScale = neighbourhoodScale;
-        sopt.skinCap = skinCap;
-
-        // Python callbacks and signals are handled with the GIL taken back, at block boundaries; an error
-        // there stops the compression at the boundary and is raised after it returns.
-        std::optional<py::error_already_set> failure;
-        const std::function<void(const edmd::Progress&)> onBlock = [&](const edmd::Progress& p) {
-          if (!progress || failure) return;
-          py::gil_scoped_acquire acquire;
-          try {
-            progress(progressDict(p));
-          } catch (py::error_already_set& e) {
-            failure.emplace(std::move(e));
-          }
-        };
-        const edmd::BoundaryHook atBoundary = [&](edmd::HardSphereSystem&, const edmd::CompressionState&) {
-          if (failure) return true;
-          py::gil_scoped_acquire acquire;
-          if (PyErr_CheckSignals() != 0) failure.emplace();
-          return failure.has_value();
-        };
-        std::unique_ptr<edmd::HardSphereSystem> system;
-        edmd::CompressionResult result;
-        jamming::ContactOptions contact;
-        jamming::ContactNetwork net;
-        Eigen::Matrix3Xd x;
-        Eigen::VectorXd r;
-        {
-          py::gil_scoped_release release;
-          system = std::make_unique<edmd::HardSphereSystem>(start.box, start.position, start.radius,
-                                                            edmd::maxwellBoltzmannVelocities(start.radius, seed), sopt);
-          edmd::validateCompression(*system, copt);
-          result = edmd::compress(*system, copt, onBlock, atBoundary);
-          if (!failure) {
-            x = system->positions();
-            r = system->radii();
-            contact.relativeGap = contactGap > 0.0 ? contactGap : jamming::defaultContactGap(result.last.pressure);
-            contact.broadPhase = broadPhase;
-            net = jamming::analyseContacts(SphereView{x, r}, system->box(), contact);
-          }
-        }
-        if (failure) throw std::move(*failure);
-        py::dict out;
-        out["positions"] = copyOut(x);
-        out["radii"] = copyOut(r);
-        out["id"] = copyOut(start.id);
-        out["box"] = py::cast(system->box());
-        out["packing_fraction"] = system->packingFraction();
-        out["pressure"] = result.last.pressure;
-        out["phi_j_estimate"] =
-            finiteOrNone(edmd::jammingDensityEstimate(system->packingFraction(), result.last.pressure));
-        out["target_reached"] = result.targetReached;
-        out["stop_reason"] = result.stopReason;
-        out["collisions"] = result.counts.collisions;
-        out["blocks"] = result.last.blocks;
-        out["wall_seconds"] = result.wallSeconds;
-        out["schedule"] = edmd::formatSchedule(copt.schedule);
-        out["attributes"] = py::cast(start.attributes);
-        out["network"] = networkDict(net, contact);
-        return out;
-      },
-      py::arg("distribution") = nullptr, py::arg("count") = 1000, py::arg("initial_phi") = 0.3,
-      py::arg("boundaries") = "periodic", py::arg("sampling") = "systematic", py::arg("seed") = 1,
-      py::arg("packing") = py::none(), py::arg("schedule") = py::none(), py::arg("target_pressure") = 1e12,
-      py::arg("target_phi") = 0.0, py::arg("max_collisions") = 1e7, py::arg("block") = 0.0,
-      py::arg("broadphase") = "hgrid-td", py::arg("neighbourhood_scale") = 1.4, py::arg("skin_cap") = 4.0,
-      py::arg("contact_gap") = 0.0, py::arg("progress") = nullptr,
-      "Event-driven compression (`polydem jam`) of a start packing made from a distribution (or given as a "
-      "particle dict); progress(dict) after every block; Ctrl-C stops at a block boundary with KeyboardInterrupt. "
-      "Returns positions, radii, box, packing_fraction, pressure, phi_j_estimate, stop_reason, network, ...");
+  m.def("jam", &jam, py::arg("distribution") = nullptr, py::arg("count") = 1000, py::arg("initial_phi") = 0.3,
+        py::arg("boundaries") = "periodic", py::arg("sampling") = "systematic", py::arg("seed") = 1,
+        py::arg("packing") = py::none(), py::arg("reopen") = 0.0, py::arg("equivalent") = "none",
+        py::arg("schedule") = py::none(), py::arg("target_pressure") = 1e12, py::arg("target_phi") = 0.0,
+        py::arg("max_collisions") = 1e7, py::arg("block") = 0.0, py::arg("broadphase") = "hgrid-td",
+        py::arg("neighbourhood_scale") = 1.4, py::arg("skin_cap") = 4.0, py::arg("contact_gap") = 0.0,
+        py::arg("run_collisions") = 0.0, py::arg("output") = py::none(), py::arg("velocities") = false,
+        py::arg("checkpoint") = py::none(), py::arg("checkpoint_interval") = 600.0, py::arg("stop_after_blocks") = 0,
+        py::arg("progress") = nullptr,
+        "Event-driven compression (`polydem jam`) of a start packing made from a distribution (or its equivalent "
+        "mixture), or of `packing` (a particle dict or file, perhaps reopened to a pressure); run_collisions at fixed "
+        "density afterwards; output writes the CLI's file, checkpoint its checkpoint (every checkpoint_interval s "
+        "and when stopped). progress(dict) after every block; Ctrl-C stops at a block boundary (checkpoint and "
+        "output written) with KeyboardInterrupt. Returns positions, radii, box, packing_fraction, pressure, "
+        "phi_j_estimate, stop_reason, network, eos, ...");
+  m.def("resume_jam", &resumeJam, py::arg("checkpoint"), py::arg("checkpoint_interval") = py::none(),
+        py::arg("stop_after_blocks") = 0, py::arg("progress") = nullptr,
+        "continue a jam checkpoint (of jam(checkpoint=...) or `polydem jam --checkpoint`) as `polydem jam --resume` "
+        "does: every setting, the output file and the checkpoint file come from it; the run is the interrupted one");
 
   m.def(
       "analyze",
       [](const py::object& packing, double pressure, double contactGap, const std::string& broadPhase,
          const std::vector<double>& taus) {
         std::string name;
-        const io::ParticleData data = packingFrom(packing, name);
+        const io::ParticleData data = particlesFrom(packing, name);
         app::analyze::AnalyzeOptions opt;
         opt.input = name;
         opt.pressure = pressure;
@@ -248,7 +408,7 @@ void bindJamming(py::module_& m) {
       "check_packing",
       [](const py::object& packing, double tolerance, const std::string& broadPhase) {
         std::string name;
-        const io::ParticleData data = packingFrom(packing, name);
+        const io::ParticleData data = particlesFrom(packing, name);
         const jamming::PackingValidity v =
             jamming::checkHardSpherePacking(SphereView{data.position, data.radius}, data.box,
                                             {.overlapTolerance = tolerance, .broadPhase = broadPhase});

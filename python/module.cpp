@@ -1,6 +1,6 @@
 // The compiled module `polydem`: the engine's concepts for numpy users (docs/python.md). This file: the
 // exceptions, the Box, the version; the other concepts are bound in one file each (distributions.cpp,
-// broadphase.cpp, simulation.cpp, jamming.cpp, io.cpp).
+// broadphase.cpp, simulation.cpp, jamming.cpp, analysis.cpp, io.cpp).
 #include <pybind11/eigen.h>
 #include <pybind11/operators.h>
 #include <pybind11/stl.h>
@@ -86,4 +86,5 @@ PYBIND11_MODULE(polydem, m) {
   bindIo(m);
   bindSimulation(m);
   bindJamming(m);
+  bindAnalysis(m);
 }

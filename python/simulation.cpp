@@ -22,6 +22,7 @@
 #include "apps/polydem/relax_scene.hpp"
 #include "apps/polydem/summary.hpp"
 #include "core/errors.hpp"
+#include "core/io/checkpoint.hpp"
 #include "core/io/safe_output.hpp"
 #include "python/convert.hpp"
 #include "python/io.hpp"
@@ -101,6 +102,9 @@ class PySimulation {
   /// From TOML text (a file's, or a dict's), as `polydem relax` starts a new run (runNew in relax.cpp).
   PySimulation(const std::string& text, const std::vector<std::string>& overrides, const std::filesystem::path& source,
                bool fromFile) {
+    context_.sceneText = text;
+    context_.sceneSource = source.string();
+    context_.overrides = overrides;
     scene_ = app::parseRelaxScene(text, overrides, source);
     if (fromFile) inputs_.push_back(source);
     if (!scene_.particleFile.empty()) inputs_.push_back(scene_.resolve(scene_.particleFile));
@@ -109,28 +113,53 @@ class PySimulation {
     }
     py::gil_scoped_release release;
     app::Start start = app::prepare(scene_);
-    attributes_ = start.attributes;
-    origin_ = start.origin;
-    if (scene_.compression) {
-      integrators::SoftCompression compression(std::move(start.particles), start.box, scene_.dem, *scene_.compression);
-      app::RunContext context;
-      context.attributes = attributes_;
-      context.origin = origin_;
-      app::compressStart(scene_, compression, start, context, true, false);
+    context_.attributes = start.attributes;
+    context_.origin = start.origin;
+    std::optional<integrators::SoftCompression> compression;
+    if (scene_.compression) compression.emplace(std::move(start.particles), start.box, scene_.dem, *scene_.compression);
+    finishStart(std::move(start), std::move(compression));
+  }
+
+  /// From a checkpoint of `polydem relax` or of save_checkpoint(), as `polydem relax --resume` continues it
+  /// (resume in relax.cpp): the scene, overrides, attributes and origin it holds, then `overrides`, which may
+  /// only be the keys a resumed run may change (relax_checkpoint.cpp's resumableKey).
+  PySimulation(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+    for (const std::string& o : overrides) {
+      if (!app::resumableKey(o)) {
+        throw ConfigError(
+            fmt::format("resume: '{}' would change the trajectory of the saved run; only run.steps, run.threads, "
+                        "run.progress_interval and output.* may be given",
+                        o));
+      }
     }
-    if (start.targetNotReached) {
-      // As the CLI: the compressed state at rest, marked, with the scene's settings; no velocities given.
-      targetNotReached_ = start.targetNotReached;
-      attributes_["target_not_reached"] = *targetNotReached_;
-      sim_ = std::make_unique<integrators::DemSimulation>(std::move(start.particles), start.box, scene_.dem);
+    io::Checkpoint checkpoint;
+    {
+      py::gil_scoped_release release;
+      checkpoint = io::readCheckpoint(file, app::kCheckpointKind);
+    }
+    context_ = app::contextFrom(checkpoint, overrides);
+    scene_ = app::parseRelaxScene(context_.sceneText, context_.overrides, context_.sceneSource);
+    // As `relax --resume`: the scene file and the particle file are inputs; the checkpoint may be checkpointed
+    // over again, but never written over by a particle file.
+    inputs_.push_back(context_.sceneSource);
+    if (!scene_.particleFile.empty()) inputs_.push_back(scene_.resolve(scene_.particleFile));
+    resumedFrom_ = file;
+    py::gil_scoped_release release;
+    const integrators::DemState state = app::stateFrom(checkpoint);
+    const std::string phase = checkpoint.string("phase");
+    if (phase == "run") {
+      sim_ = std::make_unique<integrators::DemSimulation>(integrators::DemSimulation::restore(state, runSettings()));
       return;
     }
-    app::setVelocities(scene_, start);
-    integrators::DemSettings settings = scene_.dem;
-    // runSettings() of relax.cpp: with the impact rule, overlap errors name velocities.overlap as the fix.
-    if (scene_.initialVelocities == "impact") settings.impactOverlap = scene_.impactOverlap;
-    sim_ = std::make_unique<integrators::DemSimulation>(std::move(start.particles), start.box, settings);
-    if (scene_.initialVelocities == "file") sim_->setTimeOrigin(start.fileTime);
+    if (phase != "compression" || !scene_.compression) {
+      throw InputError(fmt::format("{}: checkpoint phase '{}' does not match its scene", file.string(), phase));
+    }
+    std::optional<integrators::SoftCompression> compression;
+    compression.emplace(state, scene_.dem, *scene_.compression, app::compressionFrom(checkpoint));
+    app::Start start;
+    start.origin = context_.origin;
+    start.attributes = context_.attributes;
+    finishStart(std::move(start), std::move(compression));
   }
 
   /// Advance n steps in chunks; between chunks the GIL is taken back, signals are polled (Ctrl-C raises
@@ -156,34 +185,132 @@ class PySimulation {
   const integrators::DemSimulation& sim() const { return *sim_; }
   integrators::DemSimulation& sim() { return *sim_; }
   const app::RelaxScene& scene() const { return scene_; }
-  const std::map<std::string, std::string>& attributes() const { return attributes_; }
-  const std::string& origin() const { return origin_; }
+  const std::map<std::string, std::string>& attributes() const { return context_.attributes; }
+  const std::string& origin() const { return context_.origin; }
   const std::optional<std::string>& targetNotReached() const { return targetNotReached_; }
-  io::ParticleData snapshot() const { return app::snapshotOf(*sim_, attributes_); }
+  io::ParticleData snapshot() const { return app::snapshotOf(*sim_, context_.attributes); }
+
+  /// The complete state, as `polydem relax` checkpoints it (phase "run"): `Simulation.resume(file)` and
+  /// `polydem relax --resume file` continue it bit-identically. Never over one of the run's inputs.
+  void saveCheckpoint(const std::filesystem::path& file) const {
+    if (targetNotReached_) {
+      throw ConfigError(fmt::format(
+          "save_checkpoint: the scene's soft compression stopped short of its target ({}); such a run is not "
+          "resumed (as `polydem relax`, which writes no checkpoint for it)",
+          *targetNotReached_));
+    }
+    io::checkOutputPath(file, "checkpoint", inputs_);
+    const io::Checkpoint c = app::makeCheckpoint(*sim_, context_);
+    py::gil_scoped_release release;
+    io::writeCheckpoint(file, c);
+  }
 
   /// Write the current state as output.final is written; never over one of the run's inputs.
   void write(const std::filesystem::path& file) const {
-    io::checkOutputPath(file, "file", inputs_);
+    std::vector<std::filesystem::path> against = inputs_;
+    if (!resumedFrom_.empty()) against.push_back(resumedFrom_);
+    io::checkOutputPath(file, "file", against);
     const io::ParticleData data = snapshot();
     py::gil_scoped_release release;
     io::writeParticles(file, data);
   }
 
  private:
+  /// runSettings() of relax.cpp: with the impact rule, overlap errors name velocities.overlap as the fix.
+  integrators::DemSettings runSettings() const {
+    integrators::DemSettings settings = scene_.dem;
+    if (scene_.initialVelocities == "impact") settings.impactOverlap = scene_.impactOverlap;
+    return settings;
+  }
+
+  /// runFromStart() of relax.cpp up to the time loop: the soft compression (if any), the velocities.
+  void finishStart(app::Start start, std::optional<integrators::SoftCompression> compression) {
+    if (compression) app::compressStart(scene_, *compression, start, context_, true, false);
+    if (start.targetNotReached) {
+      // As the CLI: the compressed state at rest, marked, with the scene's settings; no velocities given.
+      targetNotReached_ = start.targetNotReached;
+      context_.attributes["target_not_reached"] = *targetNotReached_;
+      sim_ = std::make_unique<integrators::DemSimulation>(std::move(start.particles), start.box, scene_.dem);
+      return;
+    }
+    app::setVelocities(scene_, start);
+    sim_ = std::make_unique<integrators::DemSimulation>(std::move(start.particles), start.box, runSettings());
+    if (scene_.initialVelocities == "file") sim_->setTimeOrigin(start.fileTime);
+  }
+
   app::RelaxScene scene_;
+  app::RunContext context_;
   std::vector<std::filesystem::path> inputs_;
-  std::map<std::string, std::string> attributes_;
-  std::string origin_;
+  std::filesystem::path resumedFrom_;  ///< the checkpoint this run continues, if any
   std::optional<std::string> targetNotReached_;
   std::unique_ptr<integrators::DemSimulation> sim_;
 };
 
 PySimulation& self(const py::object& o) { return o.cast<PySimulation&>(); }
 
+/// `polydem relax SCENE --sweep KEY=VALUES` without its files: the start prepared once (soft compression
+/// included), one run per value over the same simulated time, and the table of its summary's sweep.* keys.
+py::dict relaxSweep(const py::dict& sceneDict, const std::string& key, const std::vector<double>& values,
+                    const std::vector<std::string>& overrides, const std::filesystem::path& baseDir) {
+  std::string spec = key + "=";
+  for (std::size_t k = 0; k < values.size(); ++k) spec += fmt::format("{}{}", k ? "," : "", values[k]);
+  app::RelaxScene scene = app::parseRelaxScene(sceneToml(sceneDict), overrides, baseDir / "<scene dict>");
+  const app::SweepSpec sweep = app::parseSweep(scene, spec);
+  std::vector<app::SweepRow> rows;
+  std::vector<app::SweepError> errors;
+  {
+    py::gil_scoped_release release;
+    app::Start start = app::prepare(scene);
+    app::RunContext context;
+    context.attributes = start.attributes;
+    context.origin = start.origin;
+    if (scene.compression) {
+      integrators::SoftCompression c(std::move(start.particles), start.box, scene.dem, *scene.compression);
+      app::compressStart(scene, c, start, context, true, false);
+      if (start.targetNotReached) {
+        throw SimulationError(fmt::format("TARGET NOT REACHED: {}; no sweep run", *start.targetNotReached));
+      }
+    }
+    app::setVelocities(scene, start);
+    rows = app::sweepRows(scene, sweep, start, context, true);
+    errors = app::sweepErrors(scene, sweep, start, rows);
+  }
+  py::dict out;
+  out["key"] = sweep.what;
+  out["error_reference"] = scene.dem.dissipationFree() ? "energy drift" : "energy vs finest";
+  std::vector<double> wall, perStep, position;
+  std::vector<std::int64_t> steps;
+  py::list energy;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    steps.push_back(rows[k].steps);
+    wall.push_back(rows[k].run.wallSeconds);
+    perStep.push_back(errors[k].usPerParticleStep);
+    position.push_back(errors[k].position);
+    energy.append(errors[k].energy ? py::object(py::float_(*errors[k].energy)) : py::object(py::none()));
+  }
+  auto array = [](const auto& v) {
+    using T = typename std::decay_t<decltype(v)>::value_type;
+    return py::array_t<T>(static_cast<py::ssize_t>(v.size()), v.data());
+  };
+  out["values"] = array(sweep.values);
+  out["steps"] = array(steps);
+  out["wall_seconds"] = array(wall);
+  out["us_per_particle_step"] = array(perStep);
+  out["energy_error"] = energy;
+  out["position_error"] = array(position);
+  return out;
+}
+
 }  // namespace
 
 void bindSimulation(py::module_& m) {
   m.def("scene_toml", &sceneToml, py::arg("scene"), "the TOML text a scene dict is read as");
+  m.def("relax_sweep", &relaxSweep, py::arg("scene"), py::arg("key"), py::arg("values"),
+        py::arg("overrides") = std::vector<std::string>{}, py::arg("base_dir") = ".",
+        "`polydem relax --sweep KEY=VALUES` (key 'dt-factor' or 'skin'): the scene's start once, one run per value "
+        "(ascending) over the same simulated time; returns values, steps, wall_seconds, us_per_particle_step, "
+        "energy_error (None where undefined) and position_error (max |dx| / r_min against the finest setting), the "
+        "CLI summary's sweep.* keys. Writes no file; not interruptible");
   m.def("default_scene", &app::defaultSceneToml, "every scene key with its default (`polydem relax --print-defaults`)");
   py::class_<PySimulation>(m, "Simulation",
                            "A soft-sphere DEM run of a `polydem relax` scene (dict with the scene file's keys).")
@@ -200,6 +327,17 @@ void bindSimulation(py::module_& m) {
             return std::make_unique<PySimulation>(readSceneText(file), overrides, file, true);
           },
           py::arg("file"), py::arg("overrides") = std::vector<std::string>{}, "a scene file, as `polydem relax FILE`")
+      .def_static(
+          "resume",
+          [](const std::filesystem::path& file, const std::vector<std::string>& overrides) {
+            return std::make_unique<PySimulation>(file, overrides);
+          },
+          py::arg("file"), py::arg("overrides") = std::vector<std::string>{},
+          "continue a checkpoint of save_checkpoint() or of `polydem relax` (output.checkpoint) as `polydem relax "
+          "--resume FILE` does; overrides only run.steps, run.threads, run.progress_interval, output.*")
+      .def("save_checkpoint", &PySimulation::saveCheckpoint, py::arg("file"),
+           "write the complete state (HDF5, the checkpoint of `polydem relax`); resume() or `polydem relax "
+           "--resume FILE` continue it bit-identically")
       .def("step", &PySimulation::step, py::arg("n") = 1, py::arg("progress") = nullptr, py::arg("chunk") = 200,
            "advance n steps (GIL released; Ctrl-C raises KeyboardInterrupt after a complete step); progress(step, "
            "target) after each chunk")

@@ -109,20 +109,9 @@ void certifyJamming(const AnalyzeOptions& opt, const io::ParticleData& data, con
 }
 
 void runLeakTest(const AnalyzeOptions& opt, const io::ParticleData& data, const jamming::ContactNetwork& net) {
-  const Index n = data.count();
   // --remove takes the sphere out of the dynamics too: the hole is the deliberate defect.
-  Eigen::Matrix3Xd x = data.position;
-  Eigen::VectorXd r = data.radius;
-  std::vector<char> watched = net.rattler;
   if (opt.removeSphere >= 0) {
-    const Index k = opt.removeSphere, last = n - 1;
-    x.col(k) = x.col(last);
-    r[k] = r[last];
-    watched[static_cast<std::size_t>(k)] = watched[static_cast<std::size_t>(last)];
-    x.conservativeResize(3, last);
-    r.conservativeResize(last);
-    watched.pop_back();
-    fmt::print("leak test without sphere {} (the last sphere takes its number)\n", k);
+    fmt::print("leak test without sphere {} (the last sphere takes its number)\n", opt.removeSphere);
   }
   jamming::LeakTestOptions leak;
   leak.collisionsPerParticle = opt.leakCollisions;
@@ -133,7 +122,8 @@ void runLeakTest(const AnalyzeOptions& opt, const io::ParticleData& data, const 
     fmt::print("  leak test: {}\n", line);
     std::fflush(stdout);
   };
-  const jamming::LeakTestResult result = jamming::testPressureLeak(x, r, data.box, watched, leak);
+  const jamming::LeakTestResult result =
+      jamming::testPressureLeakWithout(data.position, data.radius, data.box, net.rattler, opt.removeSphere, leak);
   if (result.outcome == jamming::JammingVerdict::NotTested) {
     fmt::print("pressure-leak test      {}\n", result.verdict);
   } else {

@@ -1,5 +1,7 @@
 // polydem convert: particle files between plain text, HDF5 (+ XDMF), LAMMPS data and LAMMPS dump, and
 // XDMF temporal series over a set of HDF5 snapshots. Formats by extension unless --from/--to say.
+#include "apps/polydem/convert.hpp"
+
 #include <fmt/format.h>
 
 #include <memory>
@@ -63,30 +65,9 @@ void writeOne(const std::filesystem::path& file, const std::string& format, cons
 }
 
 int runSeries(const ConvertOptions& opt) {
-  if (opt.files.empty()) throw ConfigError("--series: give the HDF5 snapshots of the series after the output name");
-  std::vector<std::filesystem::path> inputs(opt.files.begin(), opt.files.end());
-  for (const auto& in : inputs) {
-    if (!io::isHdf5Path(in)) {
-      throw ConfigError(
-          fmt::format("--series: '{}' is not an HDF5 snapshot (.h5/.hdf5); an XDMF series refers to "
-                      "HDF5 datasets: convert it first (polydem convert {} NAME.h5)",
-                      in.string(), in.string()));
-    }
-  }
-  const std::filesystem::path out = opt.series;
-  if (out.extension() != ".xmf")
-    throw ConfigError(fmt::format("--series '{}': the series file must end in .xmf", opt.series));
-  io::checkOutputPath(out, "--series", inputs);
-  for (const auto& in : inputs) {
-    if (io::samePath(out, io::xdmfPath(in))) {
-      throw ConfigError(
-          fmt::format("--series '{}' is the XDMF sidecar of '{}': choose another name", opt.series, in.string()));
-    }
-  }
-  std::vector<io::XdmfFrame> frames;
-  for (const auto& in : inputs) frames.push_back(io::xdmfFrameOf(in, io::readSnapshot(in)));
-  io::writeXdmfSeries(out, frames);
-  fmt::print("wrote {}: {} frames, t = {:.6g} .. {:.6g} s\n", out.string(), frames.size(), frames.front().time,
+  const std::vector<io::XdmfFrame> frames =
+      writeSeries(opt.series, std::vector<std::filesystem::path>(opt.files.begin(), opt.files.end()));
+  fmt::print("wrote {}: {} frames, t = {:.6g} .. {:.6g} s\n", opt.series, frames.size(), frames.front().time,
              frames.back().time);
   return 0;
 }

@@ -180,24 +180,6 @@ void loadResumeSettings(JamRun& run) {
   if (run.cmd.count("--checkpoint-interval")) opt.checkpointInterval = overrides.checkpointInterval;
 }
 
-edmd::CompressionOptions compressionOptions(const JamOptions& opt) {
-  edmd::CompressionOptions copt;
-  copt.schedule = edmd::parseSchedule(opt.schedule);
-  copt.targetPressure = opt.targetPressure;
-  copt.targetPackingFraction = opt.targetPhi;
-  copt.maxCollisionsPerParticle = opt.maxCollisions;
-  copt.blockCollisionsPerParticle = opt.block;
-  return copt;
-}
-
-edmd::SystemOptions systemOptions(const JamOptions& opt) {
-  edmd::SystemOptions sopt;
-  sopt.broadPhase = opt.broadPhase;
-  sopt.neighbourhoodScale = opt.neighbourhoodScale;
-  sopt.skinCap = opt.skinCap;
-  return sopt;
-}
-
 /// Combinations of options that make no run.
 void checkArguments(const JamRun& run) {
   const JamOptions& opt = run.opt;
@@ -247,29 +229,7 @@ void resumeStart(JamRun& run) {
   const std::string& file = run.opt.resume;
   run.start = getStartRecord(run.saved);
   run.origin = fmt::format("resumed from {} ({})", file, run.saved.string("origin"));
-  const edmd::SystemState engine = getEngine(run.saved);
-  const Index n = static_cast<Index>(engine.radius.size());
-  if (static_cast<Index>(run.start.id.size()) != n) {
-    throw InputError(fmt::format("{}: checkpoint has {} ids for {} particles", file, run.start.id.size(), n));
-  }
-  const std::size_t un = static_cast<std::size_t>(n);
-  if (n < 2 || engine.position.size() != 3 * un || engine.velocity.size() != 3 * un || engine.external.size() != un) {
-    throw InputError(fmt::format("{}: checkpoint engine arrays disagree in size ({} radii)", file, n));
-  }
-  // Construct in the caller's numbering (the constructor checks the state), then restore the engine's own.
-  Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, n), v = Eigen::Matrix3Xd::Zero(3, n);
-  Eigen::VectorXd r = Eigen::VectorXd::Ones(n);
-  for (Index i = 0; i < n; ++i) {
-    const Index e = static_cast<Index>(engine.external[static_cast<std::size_t>(i)]);
-    if (e < 0 || e >= n) throw InputError(fmt::format("{}: checkpoint numbering out of range", file));
-    for (int k = 0; k < 3; ++k) {
-      x(k, e) = engine.position[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
-      v(k, e) = engine.velocity[3 * static_cast<std::size_t>(i) + static_cast<std::size_t>(k)];
-    }
-    r[e] = engine.radius[static_cast<std::size_t>(i)];
-  }
-  run.system = std::make_unique<edmd::HardSphereSystem>(run.start.box, x, r, v, systemOptions(run.opt));
-  run.system->restoreState(engine);
+  run.system = restoreSystem(run.saved, file, run.opt, run.start);
   run.cstate = getCompressionState(run.saved);
   run.eosOffset = run.saved.integerScalar("eos_offset");
 }
@@ -293,70 +253,18 @@ void loadInputStart(JamRun& run) {
     }
   }
   run.origin = opt.input;
-  if (opt.reopen > 0.0) {
-    // edmd::reopenRadiusFactor holds for packings jammed well beyond the pressure reopened to.
-    const std::optional<double> p = io::numericAttribute(run.start, "reduced_pressure", opt.input);
-    if (p && !(*p > edmd::kReopenMargin * opt.reopen)) {
-      throw ConfigError(fmt::format("--reopen {}: the input {} has reduced pressure {:g}, not well above it",
-                                    opt.reopen, opt.input, *p));
-    }
-    const double factor = edmd::reopenRadiusFactor(opt.reopen);
-    run.start.radius *= factor;
-    run.origin += fmt::format(", radii x {:.12g} (reopened to p ~ {:g})", factor, opt.reopen);
-  }
+  if (opt.reopen > 0.0) run.origin += reopenStart(run.start, opt.reopen, opt.input);
 }
 
 /// Start from random sequential addition of radii sampled from --dist (or its --equivalent mixture).
 void sampleStart(JamRun& run) {
-  const JamOptions& opt = run.opt;
-  if (opt.count < 2) {
-    throw ConfigError(
-        fmt::format("--count {}: a compression needs at least 2 spheres (a lone sphere has no "
-                    "binary collisions, so neither a pressure nor a collision budget ends its run)",
-                    opt.count));
-  }
-  const auto dist = makeDistribution(opt.dist);
-  std::string equivalentDescription;
-  StartPackingRequest request;
-  request.count = opt.count;
-  request.sampling = opt.sampling == "random" ? Sampling::Random : Sampling::Systematic;
-  if (opt.equivalent != "none")
-    request.radii = equivalentRadii(*dist, opt.equivalent, opt.count, equivalentDescription);
-  request.packingFraction = opt.initialPhi;
-  request.boundaries = parseBoundaries(opt.boundaries);
-  request.seed = opt.seed;
   Stopwatch rsaClock;
-  StartPacking packing = makeStartPacking(*dist, request);
-  run.start.box = packing.configuration.box;
-  run.start.position = std::move(packing.configuration.position);
-  run.start.radius = std::move(packing.configuration.radius);
-  run.start.id = std::move(packing.id);
-  run.start.attributes["distribution"] = packing.distribution;
-  if (opt.equivalent != "none") run.start.attributes["equivalent_mixture"] = equivalentDescription;
-  run.origin = fmt::format("random sequential addition of {} spheres ({}) at phi {}", opt.count,
-                           opt.equivalent == "none" ? dist->describe() : equivalentDescription, opt.initialPhi);
+  run.start = sampledStart(*makeDistribution(run.opt.dist), run.opt, run.origin);
   fmt::print("random sequential addition: {:.2f} s\n", rsaClock.seconds());
 }
 
 /// The system of a fresh start, with Maxwell-Boltzmann velocities; unreachable targets refused here.
-void startSystem(JamRun& run) {
-  const Index count = run.start.count();
-  if (count < 2) {
-    throw ConfigError(
-        fmt::format("{}: {} sphere{}; a compression needs at least 2 (a lone sphere has no binary "
-                    "collisions, so neither a pressure nor a collision budget ends its run)",
-                    run.opt.input, count, count == 1 ? "" : "s"));
-  }
-  if (run.start.id.size() != static_cast<std::size_t>(count)) {
-    run.start.id.resize(static_cast<std::size_t>(count));
-    for (Index i = 0; i < count; ++i) run.start.id[static_cast<std::size_t>(i)] = i;
-  }
-  run.system = std::make_unique<edmd::HardSphereSystem>(
-      run.start.box, run.start.position, run.start.radius,
-      edmd::maxwellBoltzmannVelocities(run.start.radius, run.opt.seed), systemOptions(run.opt));
-  // The same checks compress() makes, before the run.
-  edmd::validateCompression(*run.system, run.copt);
-}
+void startSystem(JamRun& run) { run.system = startedSystem(run.opt, run.copt, run.start, run.opt.input); }
 
 void printStart(const JamRun& run) {
   const edmd::HardSphereSystem& system = *run.system;
@@ -407,21 +315,13 @@ void openEosTable(JamRun& run) {
 }
 
 void writeJamCheckpoint(JamRun& run, edmd::HardSphereSystem& system, const edmd::CompressionState& cs) {
-  io::Checkpoint c;
-  c.kind = "jam";
-  c.putInteger("format", kJamCheckpointFormat);
-  putSettings(c, run.opt);
-  c.text["origin"] = run.resuming ? run.saved.string("origin") : run.origin;
-  putStartRecord(c, run.start);
-  putCompressionState(c, cs);
   std::int64_t offset = 0;
   if (run.eosCsv.is_open()) {
     run.eosCsv.flush();
     offset = static_cast<std::int64_t>(run.eosCsv.tellp());
   }
-  c.putInteger("eos_offset", offset);
-  putEngine(c, system.saveState());
-  io::writeCheckpoint(run.opt.checkpoint, c);
+  io::writeCheckpoint(run.opt.checkpoint, jamCheckpoint(run.opt, run.resuming ? run.saved.string("origin") : run.origin,
+                                                        run.start, system, cs, offset));
 }
 
 void printProgress(const edmd::Progress& p) {
@@ -482,18 +382,6 @@ CompressOutcome compressPacking(JamRun& run) {
   return out;
 }
 
-/// What the report and the output say about the final packing.
-struct JamSummary {
-  bool interrupted = false;
-  bool targetReached = false;
-  std::string stopReason;
-  double pressure = 0.0, phi = 0.0, phiJ = 0.0;
-  Eigen::Matrix3Xd x;
-  Eigen::VectorXd r;
-  jamming::ContactOptions contactOptions;
-  jamming::ContactNetwork net;
-};
-
 /// --run-collisions: the fixed-density run after the compression; its pressure replaces the last block's.
 void runFixedDensity(JamRun& run, JamSummary& summary) {
   edmd::HardSphereSystem& system = *run.system;
@@ -515,19 +403,6 @@ void runFixedDensity(JamRun& run, JamSummary& summary) {
   app::summary().put("fixed_density.collisions_per_second", eq.collisionsPerSecond);
   app::summary().put("fixed_density.wall_seconds", eq.wallSeconds);
   summary.pressure = eq.pressure;
-}
-
-/// The contact network of the final packing.
-void analysePacking(const JamRun& run, JamSummary& summary) {
-  const edmd::HardSphereSystem& system = *run.system;
-  summary.x = system.positions();
-  summary.r = system.radii();
-  summary.contactOptions.relativeGap =
-      run.opt.contactGap > 0.0 ? run.opt.contactGap : jamming::defaultContactGap(summary.pressure);
-  summary.contactOptions.broadPhase = run.opt.broadPhase;
-  summary.net = jamming::analyseContacts(SphereView{summary.x, summary.r}, system.box(), summary.contactOptions);
-  summary.phi = system.packingFraction();
-  summary.phiJ = edmd::jammingDensityEstimate(summary.phi, summary.pressure);
 }
 
 void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSummary& s) {
@@ -610,35 +485,9 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
 
 /// -o: the packing with its provenance and summary as attributes.
 void writePacking(const JamRun& run, const edmd::CompressionResult& result, const JamSummary& s) {
-  const JamOptions& opt = run.opt;
-  const edmd::HardSphereSystem& system = *run.system;
-  io::ParticleData out;
-  out.box = system.box();
-  out.position = s.x;
-  out.radius = s.r;
-  // Hard spheres end a run with velocities: HDF5 and LAMMPS outputs always carry them; the text format
-  // only with --velocities, so its four columns (which analyze, scripts and the determinism reference read) stay.
-  if (opt.writeVelocities || !io::isTextPath(opt.output)) out.velocity = system.velocities();
-  out.id = run.start.id;
-  out.time = system.time();
-  out.attributes = run.start.attributes;
-  out.attributes["generator"] = "polydem jam";
-  out.attributes["schedule"] = edmd::formatSchedule(run.copt.schedule);
-  out.attributes["target"] =
-      opt.targetPhi > 0 ? fmt::format("phi {:.17g}", opt.targetPhi) : fmt::format("p {:.17g}", opt.targetPressure);
-  out.attributes["target_reached"] = s.targetReached ? "yes" : "no";
-  out.attributes["stop_reason"] = s.stopReason;
-  out.attributes["packing_fraction"] = fmt::format("{:.17g}", s.phi);
-  out.attributes["reduced_pressure"] = fmt::format("{:.17g}", s.pressure);
-  if (std::isfinite(s.phiJ)) out.attributes["phi_j_estimate"] = fmt::format("{:.17g}", s.phiJ);
-  out.attributes["contacts"] = std::to_string(s.net.contacts.size());
-  out.attributes["contact_gap"] = fmt::format("{:.3g}", s.contactOptions.relativeGap);
-  out.attributes["z"] = fmt::format("{:.6f}", s.net.meanCoordination());
-  if (s.net.backbone > 0) out.attributes["z_backbone"] = fmt::format("{:.6f}", s.net.backboneCoordination());
-  out.attributes["rattler_fraction"] = fmt::format("{:.6f}", s.net.rattlerFraction());
-  out.attributes["collisions"] = std::to_string(result.counts.collisions);
-  io::writeParticles(opt.output, out);
-  fmt::print("wrote {}\n", opt.output);
+  io::writeParticles(run.opt.output,
+                     packingRecord(run.opt, run.copt, run.start, *run.system, s, result.counts.collisions));
+  fmt::print("wrote {}\n", run.opt.output);
 }
 
 /// The exit code, and after an interrupt how to go on.
@@ -694,7 +543,7 @@ int runJam(JamOptions& opt, const CLI::App& cmd) {
   summary.interrupted = summary.stopReason == "interrupted";
   summary.pressure = outcome.result.last.pressure;
   if (opt.runCollisions > 0.0 && !summary.interrupted) runFixedDensity(run, summary);
-  analysePacking(run, summary);
+  analysePacking(opt, *run.system, summary);
   summary.targetReached = outcome.result.targetReached && !summary.interrupted;
   printReport(run, outcome, summary);
   if (!opt.output.empty()) writePacking(run, outcome.result, summary);

@@ -1,6 +1,7 @@
 #pragma once
 // polydem jam, internal: the options of the subcommand and its checkpoint format (jam_checkpoint.cpp).
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "core/io/checkpoint.hpp"
@@ -8,6 +9,7 @@
 #include "core/size_distribution.hpp"
 #include "edmd/compression.hpp"
 #include "edmd/hard_sphere_system.hpp"
+#include "jamming/contact_network.hpp"
 
 namespace polydem::app {
 
@@ -55,5 +57,53 @@ void putStartRecord(io::Checkpoint& c, const io::ParticleData& start);
 io::ParticleData getStartRecord(const io::Checkpoint& c);
 void putCompressionState(io::Checkpoint& c, const edmd::CompressionState& cs);
 edmd::CompressionState getCompressionState(const io::Checkpoint& c);
+
+// The parts of a run (jam_parts.cpp), shared by `polydem jam` and the Python module's jam(): the same
+// start, checkpoints, contact analysis and output file from both. They print nothing.
+
+edmd::CompressionOptions compressionOptions(const JamOptions& opt);
+edmd::SystemOptions systemOptions(const JamOptions& opt);
+
+/// --reopen: the radii of `start` x edmd::reopenRadiusFactor(pressure), refused (ConfigError) if the
+/// packing's reduced_pressure attribute is not well above `pressure`. Returns the note for the origin line.
+std::string reopenStart(io::ParticleData& start, double pressure, const std::string& input);
+
+/// Random sequential addition of opt.count radii from `distribution` (or its opt.equivalent mixture), with
+/// the ids and attributes the output carries; `origin` receives the start line. ConfigError if count < 2.
+io::ParticleData sampledStart(const SizeDistribution& distribution, const JamOptions& opt, std::string& origin);
+
+/// The system of a fresh start (ids 0..N-1 filled in if missing), with Maxwell-Boltzmann velocities of
+/// opt.seed; unreachable targets refused (edmd::validateCompression). `input` names the start in messages.
+std::unique_ptr<edmd::HardSphereSystem> startedSystem(const JamOptions& opt, const edmd::CompressionOptions& copt,
+                                                      io::ParticleData& start, const std::string& input);
+
+/// The system saved in checkpoint `saved` (read from `file`) whose start record is `start`, in its saved state.
+std::unique_ptr<edmd::HardSphereSystem> restoreSystem(const io::Checkpoint& saved, const std::string& file,
+                                                      const JamOptions& opt, const io::ParticleData& start);
+
+/// The checkpoint of a run at a block boundary; `eosOffset` is the size of the EOS table written so far.
+io::Checkpoint jamCheckpoint(const JamOptions& opt, const std::string& origin, const io::ParticleData& start,
+                             edmd::HardSphereSystem& system, const edmd::CompressionState& cs, std::int64_t eosOffset);
+
+/// What the report and the output say about the final packing.
+struct JamSummary {
+  bool interrupted = false;
+  bool targetReached = false;
+  std::string stopReason;
+  double pressure = 0.0, phi = 0.0, phiJ = 0.0;
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd r;
+  jamming::ContactOptions contactOptions;
+  jamming::ContactNetwork net;
+};
+
+/// The contact network of the final packing (contact gap from opt.contactGap or summary.pressure), phi, phi_J.
+void analysePacking(const JamOptions& opt, const edmd::HardSphereSystem& system, JamSummary& summary);
+
+/// What -o writes: the packing with its provenance and summary as attributes (velocities in HDF5 and LAMMPS
+/// outputs, in text with opt.writeVelocities).
+io::ParticleData packingRecord(const JamOptions& opt, const edmd::CompressionOptions& copt,
+                               const io::ParticleData& start, const edmd::HardSphereSystem& system, const JamSummary& s,
+                               std::int64_t collisions);
 
 }  // namespace polydem::app

@@ -119,6 +119,32 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
 
 // ---- the sweep (relax_sweep.cpp) ---------------------------------------------------------------------
 
+/// The swept key and its values, ascending.
+struct SweepSpec {
+  std::string what;  ///< "dt-factor" or "skin"
+  std::vector<double> values;
+};
+/// "dt-factor=10,20,50" or "skin=0.05,0.1" (strict numbers; dt-factor >= 5, not with run.dt). Throws ConfigError.
+SweepSpec parseSweep(const RelaxScene& scene, const std::string& spec);
+struct SweepRow {
+  double value;
+  std::int64_t steps;
+  RunSummary run;
+};
+/// One run of `scene` per value from `start` (compressed, velocities set), over the same simulated time;
+/// stops after an interrupted run (then the last row's run.interrupted). `quiet`: no line per run on stderr.
+std::vector<SweepRow> sweepRows(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
+                                const RunContext& context, bool quiet);
+/// The error of a row (integrators::convergenceError: energy drift for a dissipation-free scene, else against
+/// the finest setting) and its cost.
+struct SweepError {
+  std::optional<double> energy;  ///< undefined for a zero reference energy
+  double position = 0.0;         ///< max |dx| / r_min against the finest setting
+  double usPerParticleStep = 0.0;
+};
+std::vector<SweepError> sweepErrors(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
+                                    const std::vector<SweepRow>& rows);
+
 /// --sweep dt-factor=10,20,50 | skin=0.05,0.1: same scene (same start) per setting, same simulated time.
 int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::vector<std::filesystem::path>& inputs);
 

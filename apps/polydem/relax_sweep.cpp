@@ -46,11 +46,7 @@ std::vector<double> sweepValues(const std::string& what, const std::string& list
   return values;
 }
 
-/// The swept key and its values, ascending. Throws ConfigError.
-struct SweepSpec {
-  std::string what;  ///< "dt-factor" or "skin"
-  std::vector<double> values;
-};
+}  // namespace
 
 SweepSpec parseSweep(const RelaxScene& scene, const std::string& spec) {
   const std::size_t eq = spec.find('=');
@@ -67,30 +63,62 @@ SweepSpec parseSweep(const RelaxScene& scene, const std::string& spec) {
   return sweep;
 }
 
-struct SweepRow {
-  double value;
-  std::int64_t steps;
-  RunSummary run;
-};
-
-/// The table (stdout and CSV text) of `rows` against the reference run, by integrators::convergenceError.
-std::string tabulate(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
-                     const std::vector<SweepRow>& rows) {
+std::vector<SweepError> sweepErrors(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
+                                    const std::vector<SweepRow>& rows) {
   // Error: energy drift for dissipation-free scenes, else distance to the finest setting (largest dt factor).
   const bool elastic = scene.dem.dissipationFree();
   const SweepRow& finest = sweep.what == "dt-factor" ? rows.back() : rows.front();
   const double rmin = start.particles.radius().minCoeff();
-  std::string table = sweep.what + ",steps,wall_seconds,us_per_particle_step,energy_error,position_error\n";
-  fmt::print("\n{:>10} {:>10} {:>12} {:>18} {:>16} {:>16}\n", sweep.what, "steps", "wall s", "us/particle/step",
-             elastic ? "energy drift" : "energy vs finest", "max |dx| / r_min");
   const double n = static_cast<double>(start.particles.count());
   const integrators::RunEnd reference{finest.run.initialEnergy, finest.run.finalEnergy, finest.run.positions};
-  std::vector<double> values, wall, perStep, energyError, positionError;
-  std::vector<std::int64_t> steps;
+  std::vector<SweepError> out;
   for (const SweepRow& r : rows) {
     const integrators::ConvergenceError error = integrators::convergenceError(
         {r.run.initialEnergy, r.run.finalEnergy, r.run.positions}, reference, elastic, start.box, rmin);
     const double us = 1e6 * r.run.wallSeconds / (static_cast<double>(std::max<std::int64_t>(1, r.steps)) * n);
+    out.push_back({error.energy, error.position, us});
+  }
+  return out;
+}
+
+std::vector<SweepRow> sweepRows(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
+                                const RunContext& context, bool quiet) {
+  const std::string& what = sweep.what;
+  std::vector<SweepRow> rows;
+  for (double v : sweep.values) {
+    RelaxScene s = scene;
+    if (what == "dt-factor") {
+      s.dem.stepsPerContact = v;
+      s.steps = integrators::stepsForSameTime(scene.steps, scene.dem.stepsPerContact, v);
+    } else {
+      s.dem.skin = v;
+    }
+    if (!quiet) fmt::print(stderr, "  sweep {} = {:g}: {} steps\n", what, v, s.steps);
+    Start copy = start;
+    rows.push_back({v, s.steps,
+                    runScene(s, integrators::DemSimulation(std::move(copy.particles), copy.box, s.dem), context,
+                             RunMode{.quiet = true, .brief = true})});
+    if (rows.back().run.interrupted) break;
+  }
+  return rows;
+}
+
+namespace {
+
+/// The table (stdout and CSV text) of `rows` against the reference run, by integrators::convergenceError.
+std::string tabulate(const RelaxScene& scene, const SweepSpec& sweep, const Start& start,
+                     const std::vector<SweepRow>& rows) {
+  const bool elastic = scene.dem.dissipationFree();
+  const std::vector<SweepError> errors = sweepErrors(scene, sweep, start, rows);
+  std::string table = sweep.what + ",steps,wall_seconds,us_per_particle_step,energy_error,position_error\n";
+  fmt::print("\n{:>10} {:>10} {:>12} {:>18} {:>16} {:>16}\n", sweep.what, "steps", "wall s", "us/particle/step",
+             elastic ? "energy drift" : "energy vs finest", "max |dx| / r_min");
+  std::vector<double> values, wall, perStep, energyError, positionError;
+  std::vector<std::int64_t> steps;
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const SweepRow& r = rows[k];
+    const SweepError& error = errors[k];
+    const double us = error.usPerParticleStep;
     const std::string energyText = error.energy ? fmt::format("{:.4e}", *error.energy) : std::string("undefined");
     fmt::print("{:>10g} {:>10} {:>12.3f} {:>18.4f} {:>16} {:>16.4e}\n", r.value, r.steps, r.run.wallSeconds, us,
                energyText, error.position);
@@ -171,24 +199,10 @@ int runSweep(RelaxScene scene, const std::string& spec, bool quiet, const std::v
     }
   }
   setVelocities(scene, start);
-  std::vector<SweepRow> rows;
-  for (double v : sweep.values) {
-    RelaxScene s = scene;
-    if (what == "dt-factor") {
-      s.dem.stepsPerContact = v;
-      s.steps = integrators::stepsForSameTime(scene.steps, scene.dem.stepsPerContact, v);
-    } else {
-      s.dem.skin = v;
-    }
-    if (!quiet) fmt::print(stderr, "  sweep {} = {:g}: {} steps\n", what, v, s.steps);
-    Start copy = start;
-    rows.push_back({v, s.steps,
-                    runScene(s, integrators::DemSimulation(std::move(copy.particles), copy.box, s.dem), context,
-                             RunMode{.quiet = true, .brief = true})});
-    if (rows.back().run.interrupted) {
-      fmt::print("sweep interrupted at {} = {:g}: no table written\n", what, v);
-      return kExitInterrupted;
-    }
+  const std::vector<SweepRow> rows = sweepRows(scene, sweep, start, context, quiet);
+  if (rows.back().run.interrupted) {
+    fmt::print("sweep interrupted at {} = {:g}: no table written\n", what, rows.back().value);
+    return kExitInterrupted;
   }
   io::writeFileAtomically(csvPath, tabulate(scene, sweep, start, rows));
   fmt::print("table: {}\n", csvPath);

@@ -4,8 +4,9 @@
 A polydisperse packing is softly compressed once (the scene's [compression] section, frictionless) to
 phi = 0.6; for each friction coefficient mu that packing is stirred (impact velocities) and relaxed with viscous damping while the kinetic energy is
 recorded through the progress callback. The final state goes to polydem.analyze (the contact network of
-`polydem analyze`, with a contact gap wide enough for the soft overlaps) and the results are plotted:
-kinetic energy against time, and the mean coordination number against mu.
+`polydem analyze`, with a contact gap wide enough for the soft overlaps) and to polydem.structure (bond
+orientational order over Delaunay neighbours, `polydem analyze --order`; needs CGAL), and the results are
+plotted: kinetic energy against time, and the mean coordination number against mu.
 
   PYTHONPATH=build/python /usr/bin/python3 examples/python/relax_then_analyze.py [--small] [--out DIR]
 """
@@ -69,12 +70,17 @@ def main():
         contacts = sim.contacts()
         # The soft overlaps (a few 1e-3 of a radius) are inside this contact tolerance.
         net = polydem.analyze(final, contact_gap=max(0.02, 2 * contacts["max_overlap_ratio"]))
+        # Crystallinity of the relaxed packing: the fraction of solid-like spheres and the global Q6.
+        order = polydem.structure(final, order=True)["bond_order"] if polydem.with_cgal else None
         rows.append({"friction": mu, "packing_fraction": sim.packing_fraction, "z": net["z"],
                      "z_backbone": net["z_backbone"], "rattler_fraction": net["rattler_fraction"],
-                     "max_overlap_ratio": contacts["max_overlap_ratio"], "kinetic": sim.energies()["kinetic"]})
+                     "max_overlap_ratio": contacts["max_overlap_ratio"], "kinetic": sim.energies()["kinetic"],
+                     "crystalline_fraction": order["crystalline_fraction"] if order else "",
+                     "global_q6": order["global_q6"] if order else ""})
         histories[mu] = history
         print(f"mu = {mu:<5g} phi = {sim.packing_fraction:.4f}  Z = {net['z']:.3f}  rattlers "
-              f"{100 * net['rattler_fraction']:.1f}%  max overlap / r = {contacts['max_overlap_ratio']:.2e}")
+              f"{100 * net['rattler_fraction']:.1f}%  max overlap / r = {contacts['max_overlap_ratio']:.2e}"
+              + (f"  Q6 = {order['global_q6']:.3f}" if order else ""))
 
     with open(os.path.join(args.out, "relax_then_analyze.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]))

@@ -112,5 +112,41 @@ TEST(PressureLeak, NoSpheresOrOneSphereIsNotTested) {
   EXPECT_EQ(jammed.outcome, JammingVerdict::Jammed) << jammed.verdict;
 }
 
+TEST(PressureLeak, WithoutASphereTheLastTakesItsNumber) {
+  // testPressureLeakWithout(k) is the test of the packing with sphere k replaced by the last one (the
+  // renumbering `analyze --leak-test --remove K` prints), rattler flags moved with it.
+  Eigen::Matrix3Xd x;
+  Eigen::VectorXd r;
+  const Box box = lattice(true, 3, 1e-9, x, r);
+  LeakTestOptions options;
+  options.collisionsPerParticle = 100;
+  options.blocks = 4;
+  const Index n = static_cast<Index>(r.size()), k = 5;
+  std::vector<char> rattler(static_cast<std::size_t>(n), 0);
+  rattler[static_cast<std::size_t>(n - 1)] = 1;
+  Eigen::Matrix3Xd y = x;
+  Eigen::VectorXd s = r;
+  y.col(k) = x.col(n - 1);
+  s[k] = r[n - 1];
+  y.conservativeResize(3, n - 1);
+  s.conservativeResize(n - 1);
+  std::vector<char> moved(rattler.begin(), rattler.end() - 1);
+  moved[static_cast<std::size_t>(k)] = 1;
+  const LeakTestResult by = testPressureLeakWithout(x, r, box, rattler, k, options);
+  const LeakTestResult direct = testPressureLeak(y, s, box, moved, options);
+  ASSERT_EQ(by.blocks.size(), direct.blocks.size());
+  for (std::size_t b = 0; b < by.blocks.size(); ++b) {
+    EXPECT_EQ(by.blocks[b].pressure, direct.blocks[b].pressure);
+    EXPECT_EQ(by.blocks[b].maxDisplacement, direct.blocks[b].maxDisplacement);
+    EXPECT_EQ(by.blocks[b].maxSphere, direct.blocks[b].maxSphere);
+  }
+  EXPECT_EQ(by.counts.collisions, direct.counts.collisions);
+  // The hole unjams the crystal: its pressure is not that of the intact one.
+  const LeakTestResult intact = testPressureLeakWithout(x, r, box, rattler, -1, options);
+  EXPECT_NE(intact.blocks.front().pressure, by.blocks.front().pressure);
+  EXPECT_THROW(testPressureLeakWithout(x, r, box, rattler, n, options), ConfigError);
+  EXPECT_THROW(testPressureLeakWithout(x, r, box, std::vector<char>(3, 0), k, options), ConfigError);
+}
+
 }  // namespace
 }  // namespace polydem::jamming

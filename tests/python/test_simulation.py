@@ -149,3 +149,132 @@ def test_write_refuses_the_scene_file(tmp_path):
     sim = polydem.Simulation.from_file(scene_file)
     with pytest.raises(polydem.ConfigError, match="is the input"):
         sim.write(scene_file)
+
+
+needs_hdf5 = pytest.mark.skipif(not polydem.with_hdf5, reason="checkpoints are HDF5 files")
+
+
+@needs_hdf5
+def test_checkpoint_resume_is_byte_identical(cli, tmp_path):
+    whole = polydem.Simulation(SCENE)
+    whole.run()
+    whole.write(tmp_path / "whole.txt")
+    first = polydem.Simulation(SCENE)
+    first.step(180)
+    checkpoint = tmp_path / "ck.h5"
+    first.save_checkpoint(checkpoint)
+    again = polydem.Simulation.resume(checkpoint)
+    assert again.step_count == 180 and again.steps == SCENE["run"]["steps"] and again.time == first.time
+    np.testing.assert_array_equal(again.positions, first.positions)
+    again.run()
+    again.write(tmp_path / "resumed.txt")
+    assert filecmp.cmp(tmp_path / "resumed.txt", tmp_path / "whole.txt", shallow=False)
+    # `polydem relax --resume` continues the module's checkpoint to the same bytes.
+    cli("relax", "--resume", checkpoint, "-q", "--set", 'output.final="cli.txt"', cwd=tmp_path)
+    assert filecmp.cmp(tmp_path / "cli.txt", tmp_path / "whole.txt", shallow=False)
+
+
+@needs_hdf5
+def test_resume_a_cli_checkpoint(cli, tmp_path):
+    scene = {
+        "particles": {"count": 200, "distribution": "mono", "rmin": 1e-3, "packing_fraction": 0.3, "seed": 3},
+        "contact": {"stiffness": 1e4, "restitution": 0.5},
+        "compression": {"packing_fraction": 0.45},
+        "run": {"steps": 300, "progress_interval": 0.0},
+    }
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(polydem.scene_toml(scene) + '[output]\nfinal = "cli.txt"\ncheckpoint = "ck.h5"\n')
+    cli("relax", scene_file, "-q", cwd=tmp_path)
+    whole = polydem.Simulation(scene)
+    whole.run()
+    # The CLI's checkpoint at the end of its run (step 300), resumed for 100 more steps.
+    resumed = polydem.Simulation.resume(tmp_path / "ck.h5", overrides=["run.steps=400"])
+    assert resumed.step_count == 300 and resumed.steps == 400
+    np.testing.assert_array_equal(resumed.positions, whole.positions)
+    np.testing.assert_array_equal(resumed.velocities, whole.velocities)
+    whole.step(100)
+    resumed.run()
+    whole.write(tmp_path / "whole.txt")
+    resumed.write(tmp_path / "resumed.txt")
+    assert filecmp.cmp(tmp_path / "resumed.txt", tmp_path / "whole.txt", shallow=False)
+
+
+@needs_hdf5
+def test_resume_a_cli_checkpoint_of_the_soft_compression(cli, tmp_path):
+    """SIGINT during the CLI's soft compression leaves a checkpoint of phase "compression"; the module
+    finishes the compression and the run to the bytes of an uninterrupted run."""
+    import subprocess
+    import time
+
+    scene = {
+        "particles": {"count": 300, "distribution": "mono", "rmin": 1e-3, "packing_fraction": 0.3, "seed": 4},
+        "contact": {"stiffness": 1e4, "restitution": 0.5},
+        "compression": {"packing_fraction": 0.5, "growth_rate": 2e-4},
+        "run": {"steps": 100, "progress_interval": 0.0},
+    }
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(polydem.scene_toml(scene) + '[output]\ncheckpoint = "ck.h5"\ncheckpoint_interval = 2000\n')
+    proc = subprocess.Popen([os.path.abspath(os.environ["POLYDEM_CLI"]), "relax", str(scene_file), "-q"], cwd=tmp_path,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "ck.h5").exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    log = proc.communicate(timeout=120)[0]
+    if "soft compression interrupted" not in log:
+        pytest.skip("the soft compression ended before the signal arrived (machine too fast)")
+    resumed = polydem.Simulation.resume(tmp_path / "ck.h5")
+    assert resumed.step_count == 0 and resumed.target_not_reached is None
+    resumed.run()
+    resumed.write(tmp_path / "resumed.txt")
+    whole = polydem.Simulation(scene)
+    whole.run()
+    whole.write(tmp_path / "whole.txt")
+    assert filecmp.cmp(tmp_path / "resumed.txt", tmp_path / "whole.txt", shallow=False)
+
+
+@needs_hdf5
+def test_resume_refuses_what_would_change_the_run(tmp_path):
+    sim = polydem.Simulation(SCENE)
+    sim.step(10)
+    checkpoint = tmp_path / "ck.h5"
+    sim.save_checkpoint(checkpoint)
+    with pytest.raises(polydem.ConfigError, match="would change the trajectory"):
+        polydem.Simulation.resume(checkpoint, overrides=["contact.friction=0.1"])
+    resumed = polydem.Simulation.resume(checkpoint, overrides=["run.steps=20"])
+    resumed.run()
+    resumed.save_checkpoint(checkpoint)  # a resumed run checkpoints into its file again, as the CLI's
+    assert polydem.Simulation.resume(checkpoint).step_count == 20
+    with pytest.raises(polydem.ConfigError, match="ck.h5"):
+        resumed.write(checkpoint)  # but no particle file goes over it
+    with pytest.raises(polydem.InputError):
+        polydem.Simulation.resume(tmp_path / "missing.h5")
+    (tmp_path / "bad.h5").write_text("not a checkpoint")
+    with pytest.raises(polydem.InputError):
+        polydem.Simulation.resume(tmp_path / "bad.h5")
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(polydem.scene_toml(SCENE))
+    from_file = polydem.Simulation.from_file(scene_file)
+    with pytest.raises(polydem.ConfigError, match="is the input"):
+        from_file.save_checkpoint(scene_file)
+
+
+def test_relax_sweep_matches_cli(cli, tmp_path):
+    import json
+
+    scene = {**SCENE, "run": {**SCENE["run"], "steps": 200}}
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(polydem.scene_toml(scene))
+    cli("relax", scene_file, "-q", "--sweep", "dt-factor=10,40,20", "--summary-json", tmp_path / "s.json", cwd=tmp_path)
+    s = json.loads((tmp_path / "s.json").read_text())["sweep"]
+    r = polydem.relax_sweep(scene, "dt-factor", [10, 40, 20])
+    assert r["key"] == s["key"] == "dt-factor" and r["error_reference"] == s["error_reference"]
+    assert r["values"].tolist() == s["values"] == [10.0, 20.0, 40.0]
+    assert r["steps"].dtype == np.int64 and r["steps"].tolist() == s["steps"]
+    assert r["position_error"].tolist() == s["position_error"] and r["position_error"][-1] == 0.0
+    assert r["energy_error"] == s["energy_error"]
+    assert r["wall_seconds"].shape == (3,) and np.all(r["wall_seconds"] > 0)
+    with pytest.raises(polydem.ConfigError, match="only dt-factor and skin can be swept"):
+        polydem.relax_sweep(scene, "friction", [0.1])
+    with pytest.raises(polydem.ConfigError, match="below the smallest allowed value"):
+        polydem.relax_sweep(scene, "dt-factor", [2])
