@@ -463,13 +463,14 @@ void readOutput(Section output, RelaxScene& s) {
   }
   if (!s.snapshotArrays.empty()) {
     const std::string& f = s.snapshot;
-    const bool holdsArrays =
-        f.ends_with(".h5") || f.ends_with(".hdf5") || f.ends_with(".dump") || f.ends_with(".lammpstrj");
-    if (!holdsArrays) {
+    // Every snapshot format holds them (HDF5 datasets, dump and text columns) but LAMMPS data files.
+    const std::string name = std::filesystem::path(f).filename().string();
+    const bool lammpsData = f.ends_with(".data") || f.ends_with(".lmp") || name.starts_with("data.");
+    if (f.empty() || lammpsData) {
       throw ConfigError(
-          fmt::format("output.arrays needs HDF5 (.h5) or LAMMPS dump (.dump) snapshots; output.snapshot = "
+          fmt::format("output.arrays needs HDF5 (.h5), LAMMPS dump (.dump) or text snapshots; output.snapshot = "
                       "\"{}\" {}",
-                      f, f.empty() ? "is not set" : "is a text file, which has no columns for them"));
+                      f, f.empty() ? "is not set" : "is a LAMMPS data file, which has no columns for them"));
     }
   }
   if (s.contacts && s.snapshot.empty()) {

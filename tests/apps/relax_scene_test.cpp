@@ -266,8 +266,13 @@ TEST(RelaxScene, RattlerAndSizeClassAreKnownArrays) {
   EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.arrays=[\"rattlers\"]"}),
               HasSubstr("unknown array \"rattlers\"; known: force, torque, angular_velocity, contact_count, "
                         "max_overlap, kinetic_energy, rattler, size_class"));
-  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.txt\"", "output.arrays=[\"size_class\"]"}),
-              HasSubstr("output.arrays needs HDF5"));
+  EXPECT_EQ(parseRelaxScene(kMinimal, {"output.snapshot=\"s_{step}.txt\"", "output.arrays=[\"size_class\"]"})
+                .snapshotArrays.size(),
+            1u)
+      << "text snapshots hold arrays as columns";
+  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.data\"", "output.arrays=[\"size_class\"]"}),
+              HasSubstr("is a LAMMPS data file, which has no columns for them"));
+  EXPECT_THAT(configError(kMinimal, {"output.arrays=[\"size_class\"]"}), HasSubstr("output.arrays needs"));
 }
 
 }  // namespace

@@ -10,7 +10,8 @@
    the contact forces summed per particle equal the snapshot's force array, the contacts per particle equal
    contact_count, rattler equals a recursive d + 1 = 4 removal over the file's contacts, size_class equals
    floor(log2(r / r_min)).
-3. The same run with text snapshots: CSV contact files with the same values as the HDF5 ones.
+3. The same run with text snapshots: CSV contact files with the same values as the HDF5 ones, and the
+   arrays as text columns.
 4. Without output.contacts no contact file is written; a LAMMPS dump snapshot carries rattler and
    size_class columns and gets a CSV contact file.
 Needs h5py and numpy (Debian python3-h5py, python3-numpy); exit 77 (skipped) without them.
@@ -213,7 +214,25 @@ for step in (0, 100, 200):
 
 # ---------------------------------------------------------------------------------------------------------
 # 3. Text snapshots: CSV contact files with the same values.
-run("relax", "gen.toml", "-q", "--set", 'output.snapshot="t_{step}.txt"', "--set", "output.contacts=true")
+run("relax", "gen.toml", "-q", "--set", 'output.snapshot="t_{step}.txt"', "--set", "output.contacts=true", "--set",
+    'output.arrays=["rattler", "size_class", "force"]')
+
+
+def text_snapshot(file):
+    """The columns of a polydem text file by name (the `# columns:` line), rows in file order."""
+    with open(file) as f:
+        lines = f.read().splitlines()
+    names = next(line for line in lines if line.startswith("# columns:")).split()[2:]
+    rows = [line.split() for line in lines if line and not line.startswith("#")][1:]  # [0] is N Lx Ly Lz
+    return {name: np.array([float(r[k]) for r in rows]) for k, name in enumerate(names)}
+
+
+for step in (0, 100, 200):
+    t, g = text_snapshot(f"t_{step:09d}.txt"), snapshot_h5(f"g_{step:09d}.h5")
+    ids = t["id"] if "id" in t else np.arange(len(t["x"]))
+    same = np.array_equal(ids, g["id"]) and np.array_equal(t["rattler"], g["rattler"])
+    same = same and np.array_equal(t["size_class"], g["size_class"]) and np.array_equal(t["force_y"], g["force"][:, 1])
+    check(same, f"t step {step}: the text snapshot's rattler, size_class, force_x.. columns = the HDF5 arrays")
 for step in (0, 100, 200):
     csv = np.genfromtxt(f"t_{step:09d}_contacts.csv", delimiter=",", names=True, comments="#")
     c = contacts_h5(f"g_{step:09d}_contacts.h5")
