@@ -22,3 +22,5 @@ polydem_cli_test(NAME relax_contacts_file_is_final COMMAND relax relax_small.tom
                  PASS "output.final and output.contacts \\(the contact file\\) are the same file" LABELS relax)
 polydem_cli_test(NAME relax_arrays_unknown_lists_new COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.h5\"
                  --set output.arrays=[\"rattlers\"] EXIT 2 PASS "kinetic_energy, rattler, size_class" LABELS relax)
+polydem_cli_test(NAME minimise_contacts_without_output COMMAND minimise -n 20 --contacts EXIT 2
+                 PASS "--contacts writes the contact file beside the packing: give -o FILE too" LABELS minimise)

@@ -14,11 +14,13 @@
    arrays as text columns.
 4. Without output.contacts no contact file is written; a LAMMPS dump snapshot carries rattler and
    size_class columns and gets a CSV contact file.
+5. minimise --contacts: fn = k R_eff overlap by hand, the contact count of the report, forces that balance.
 Needs h5py and numpy (Debian python3-h5py, python3-numpy); exit 77 (skipped) without them.
 """
 import glob
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -261,6 +263,25 @@ with open("d_000000100.dump") as f:
     atoms = next(line for line in f if line.startswith("ITEM: ATOMS"))
 check("rattler" in atoms.split() and "size_class" in atoms.split(), f"d: dump columns {atoms.strip()}")
 check(os.path.exists("d_000000100_contacts.csv"), "d: a CSV contact file beside the dump")
+
+# ---------------------------------------------------------------------------------------------------------
+# 5. minimise --contacts: the contact network of a FIRE packing in mechanical equilibrium.
+out = run("minimise", "-n", "200", "--phi0", "0.75", "--seed", "2", "--progress", "0", "-o", "m.h5", "--contacts")
+reported = int(re.search(r"^final .*contacts (\d+)", out, re.M).group(1))
+c, s = contacts_h5("m_contacts.h5"), snapshot_h5("m.h5")
+slot = {int(i): a for a, i in enumerate(s["id"])}
+a = np.array([slot[int(i)] for i in c["id_i"]], dtype=int)
+b = np.array([slot[int(j)] for j in c["id_j"]], dtype=int)
+r = s["radius"]
+reff = r[a] * r[b] / (r[a] + r[b])
+check(len(c["fn"]) == reported, f"m: {len(c['fn'])} contacts, the report's {reported}")
+check(close(c["fn"], 1.0 * reff * c["overlap"]), "m: fn = k R_eff overlap (linear, radius-scaled, k = 1) by hand")
+summed = np.zeros((len(r), 3))
+np.add.at(summed, a, c["normal_force"])
+np.add.at(summed, b, -c["normal_force"])
+check(np.max(np.abs(summed)) <= 1e-6 * np.mean(c["fn"]),
+      f"m: the contact forces balance on every sphere (max |sum F| {np.max(np.abs(summed)) / np.mean(c['fn']):.1e} of <fn>)")
+check(os.path.exists("m_contacts.xmf") and "tangential_force" not in c, "m: sidecar, no tangential force")
 
 if failures:
     print(f"{len(failures)} check(s) failed")
