@@ -30,6 +30,11 @@ void writeContactsCsv(const std::filesystem::path& file, const ContactData& d) {
   const bool tangential = d.tangentialForce.has_value();
   std::string text;
   auto out = std::back_inserter(text);
+  // The column names come first, so numpy.genfromtxt(names=True) finds them; the comments after them are
+  // skipped by it, by pandas.read_csv(comment="#") and by polydem.
+  text += "id_i,id_j,overlap,fn,normal_force_x,normal_force_y,normal_force_z,";
+  if (tangential) text += "tangential_force_x,tangential_force_y,tangential_force_z,";
+  text += "branch_x,branch_y,branch_z,centre_x,centre_y,centre_z\n";
   fmt::format_to(out, "# polydem contacts: {} particle pairs in contact\n", m);
   fmt::format_to(out, "# time: {:.17g}\n", d.time);
   fmt::format_to(out, "# box: {:.17g} {:.17g} {:.17g}", d.box.length(0), d.box.length(1), d.box.length(2));
@@ -39,9 +44,6 @@ void writeContactsCsv(const std::filesystem::path& file, const ContactData& d) {
   text +=
       "# forces on i from j (on j: the negatives), N; fn > 0 repulsive; normal_force = fn n, n = -branch / |branch|\n"
       "# branch: centre of i to the nearest periodic image of the centre of j (m); centre: i's centre in the box\n";
-  text += "id_i,id_j,overlap,fn,normal_force_x,normal_force_y,normal_force_z,";
-  if (tangential) text += "tangential_force_x,tangential_force_y,tangential_force_z,";
-  text += "branch_x,branch_y,branch_z,centre_x,centre_y,centre_z\n";
   for (Index c = 0; c < m; ++c) {
     const Eigen::Vector3d fn = d.normalForceVector(c);
     fmt::format_to(out, "{},{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},", d.idI[std::size_t(c)], d.idJ[std::size_t(c)],

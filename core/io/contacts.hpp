@@ -25,12 +25,13 @@
 //     /xdmf/lines    M x 2 int32: 2c, 2c + 1
 //     /box/lengths (3 double), /box/periodic (3 int8), /parameters (string attributes), root attribute time
 //   The per-contact datasets are XDMF cell attributes (Center="Cell"), so a line is coloured by its fn.
-// - anything else: CSV with '#' comment lines first (what, time, box, attributes, conventions), then
-//   one header line of column names and one line per contact at full precision (%.17g):
+// - anything else: CSV, first the line of column names
 //     id_i,id_j,overlap,fn,normal_force_x,normal_force_y,normal_force_z,
 //     [tangential_force_x,tangential_force_y,tangential_force_z,]branch_x,branch_y,branch_z,
 //     centre_x,centre_y,centre_z
-//   (numpy.genfromtxt(file, delimiter=",", names=True) reads it as it is).
+//   then '#' comment lines (count, time, box, attributes, conventions), then one line per contact at full
+//   precision (%.17g). numpy.genfromtxt(file, delimiter=",", names=True) and pandas.read_csv(file,
+//   comment="#") read it as it is.
 #include <Eigen/Core>
 #include <filesystem>
 #include <map>
