@@ -55,12 +55,7 @@ void writeOne(const std::filesystem::path& file, const std::string& format, cons
   } else if (format == "lammps-data") {
     io::writeLammpsData(file, data);
   } else {
-    if (!data.arrays.empty()) {
-      std::string names;
-      for (const io::ParticleArray& a : data.arrays) names += (names.empty() ? "" : ", ") + a.name;
-      fmt::print("note: the text format has no columns for the arrays {}: they are not in {}\n", names, file.string());
-    }
-    io::writeText(file, data);
+    io::writeText(file, data);  // with the arrays as extra columns
   }
 }
 

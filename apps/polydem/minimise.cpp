@@ -17,9 +17,11 @@
 #include "apps/polydem/exit_codes.hpp"
 #include "apps/polydem/minimise_scene.hpp"
 #include "apps/polydem/validators.hpp"
+#include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/interrupt.hpp"
+#include "core/io/contacts.hpp"
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
 #include "integrators/pressure_jamming.hpp"
@@ -62,6 +64,7 @@ struct MinimiseOptions {
   int maxSteps = 300;
   // output
   std::string output;
+  bool contacts = false;  ///< --contacts: the contact file beside --output
   double progressSeconds = 5.0;
   int sizeClasses = 5;
 };
@@ -141,6 +144,9 @@ void addOptions(CLI::App* cmd, MinimiseOptions* o) {
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
   cmd->add_option("-o,--output", o->output, "write the minimised packing: .h5/.hdf5 for HDF5 (+ .xmf), else text");
+  cmd->add_flag("--contacts", o->contacts,
+                "with -o: also write the contact network beside it (NAME_contacts.h5 + .xmf for HDF5, else "
+                "NAME_contacts.csv): pairs, normal forces, overlaps, branch vectors (docs/files.md)");
   cmd->add_option("--progress", o->progressSeconds, "seconds between progress lines (0 = none)")
       ->check(finiteNonNegative())
       ->capture_default_str();
@@ -237,6 +243,64 @@ struct Outcome {
   integrators::MinimiserReport last;
 };
 
+/// The contacts (overlap > 0) of the minimised packing `d` (slot order, wrapped) with the law's elastic normal
+/// force (FIRE runs have no dashpot and no friction), for --contacts. O(N) with a linked-cell pass.
+io::ContactData minimisedContacts(const integrators::FireMinimiser& m, const io::ParticleData& d) {
+  const contact::ContactModel model(m.settings().contact);
+  const bool hertz = model.parameters().normal == contact::NormalModel::Hertz;
+  const SphereView spheres{d.position, d.radius};
+  std::vector<broadphase::Pair> pairs;
+  if (d.count() > 1) {
+    std::unique_ptr<broadphase::BroadPhase> bp = broadphase::makeBroadPhase("linked-cell");
+    try {
+      bp->build(spheres, d.box, 0.0);
+    } catch (const ConfigError&) {  // a box too small for cells
+      bp = broadphase::makeBroadPhase("brute");
+      bp->build(spheres, d.box, 0.0);
+    }
+    bp->findPairs(spheres, pairs);
+  }
+  struct Row {
+    Index idI, idJ;
+    Index a, b;  // slots of id_i, id_j
+  };
+  std::vector<Row> rows;
+  for (const broadphase::Pair& p : pairs) {
+    const Eigen::Vector3d gap = d.box.minimumImage(d.position.col(p.j) - d.position.col(p.i));
+    const double sumR = d.radius[p.i] + d.radius[p.j];
+    if (gap.squaredNorm() >= sumR * sumR) continue;
+    const Index idI = d.id[std::size_t(p.i)], idJ = d.id[std::size_t(p.j)];
+    rows.push_back(idI < idJ ? Row{idI, idJ, p.i, p.j} : Row{idJ, idI, p.j, p.i});
+  }
+  std::sort(rows.begin(), rows.end(),
+            [](const Row& x, const Row& y) { return x.idI != y.idI ? x.idI < y.idI : x.idJ < y.idJ; });
+  io::ContactData c;
+  c.box = d.box;
+  c.time = d.time;
+  c.attributes["contact"] = model.parameters().describe();
+  const auto count = static_cast<Index>(rows.size());
+  c.idI.resize(rows.size());
+  c.idJ.resize(rows.size());
+  c.centre.resize(3, count);
+  c.branch.resize(3, count);
+  c.overlap.resize(count);
+  c.normalForce.resize(count);
+  for (Index k = 0; k < count; ++k) {
+    const Row& r = rows[std::size_t(k)];
+    const Eigen::Vector3d branch = d.box.minimumImage(d.position.col(r.b) - d.position.col(r.a));
+    const double overlap = d.radius[r.a] + d.radius[r.b] - branch.norm();
+    const double reff = d.radius[r.a] * d.radius[r.b] / (d.radius[r.a] + d.radius[r.b]);
+    c.idI[std::size_t(k)] = r.idI;
+    c.idJ[std::size_t(k)] = r.idJ;
+    c.centre.col(k) = d.position.col(r.a);
+    c.branch.col(k) = branch;
+    c.overlap[k] = overlap;
+    c.normalForce[k] = hertz ? contact::HertzNormal::force(model.hertzParams(), overlap, 0.0, 1.0, reff).force
+                             : contact::LinearNormal::force(model.linearParams(), overlap, 0.0, 1.0, reff).force;
+  }
+  return c;
+}
+
 void writeOutput(const MinimiseOptions& o, const Start& start, const integrators::FireMinimiser& m, const Outcome& out,
                  const jamming::ContactNetwork& net) {
   io::ParticleData d;
@@ -278,6 +342,13 @@ void writeOutput(const MinimiseOptions& o, const Start& start, const integrators
   d.attributes["rattler_fraction"] = fmt::format("{:.6f}", net.rattlerFraction());
   io::writeParticles(o.output, d);
   fmt::print("wrote {}\n", o.output);
+  if (o.contacts) {
+    io::ContactData contacts = minimisedContacts(m, d);
+    contacts.attributes["snapshot"] = std::filesystem::path(o.output).filename().string();
+    const std::filesystem::path file = io::contactPathFor(o.output);
+    io::writeContacts(file, contacts);
+    fmt::print("wrote {} ({} contacts)\n", file.string(), contacts.count());
+  }
 }
 
 void printState(const char* label, const integrators::MinimiserReport& r) {
@@ -301,11 +372,15 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
   if (cmd.count("--stiffness-scaling") && o.law == "hertz") {
     throw ConfigError("--stiffness-scaling applies to --law linear only (Hertz scales with sqrt(R_eff) itself)");
   }
+  if (o.contacts && o.output.empty()) {
+    throw ConfigError("--contacts writes the contact file beside the packing: give -o FILE too");
+  }
   if (!o.output.empty()) {
     std::vector<std::filesystem::path> inputs;
     if (!o.input.empty()) inputs.emplace_back(o.input);
     if (!o.scene.empty()) inputs.emplace_back(o.scene);
     io::checkOutputPath(o.output, "--output", inputs);
+    if (o.contacts) io::checkOutputPath(io::contactPathFor(o.output), "--contacts (the contact file)", inputs);
   }
   Start start = makeStart(o, cmd);
   ParticleStore store(start.data.count(), Features{});

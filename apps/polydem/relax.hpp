@@ -1,8 +1,8 @@
 #pragma once
 // The parts of `polydem relax` (see relax.cpp for the subcommand): the starting state (relax_start.cpp),
-// checkpoints and resume (relax_checkpoint.cpp), the time loop with its outputs (relax_run.cpp), the
-// printed report (relax_report.cpp) and the dt-factor / skin sweep (relax_sweep.cpp). Internal to the
-// relax subcommand.
+// checkpoints and resume (relax_checkpoint.cpp), the time loop with its outputs, contact files included
+// (relax_run.cpp), the printed report (relax_report.cpp) and the dt-factor / skin sweep (relax_sweep.cpp).
+// Internal to the relax subcommand.
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
@@ -14,6 +14,7 @@
 
 #include "apps/polydem/relax_scene.hpp"
 #include "core/io/checkpoint.hpp"
+#include "core/io/contacts.hpp"
 #include "core/io/particle_file.hpp"
 #include "integrators/dem_simulation.hpp"
 #include "integrators/soft_compression.hpp"
@@ -94,6 +95,29 @@ struct RunMode {
 /// velocities (rotation on), time, step, and `attrs` plus step, time, contact and dt (the Python module writes
 /// its files through it too, so they match the CLI's byte for byte).
 io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs);
+// ---- contact files and derived arrays of the snapshots (relax_run.cpp) ----------------------------------
+
+/// The particle pairs in contact at the current step with their forces (output.contacts), rows in id order,
+/// `attrs` plus step, time and contact. Forces from the snapshot's state (see relax_run.cpp). O(N + P).
+io::ContactData contactsOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs);
+
+/// output.arrays "rattler": 1 for a particle left with fewer than d + 1 = 4 contacts (pairs and walls with
+/// gap <= 0) after rattlers are removed recursively (jamming::analyseContacts), else 0; `d` in id order.
+Eigen::VectorXd rattlerFlags(const io::ParticleData& d);
+
+/// At most this many distinct radii make a configuration a discrete mixture for size_class.
+inline constexpr int kMaxSizeComponents = 8;
+
+/// output.arrays "size_class": with at most kMaxSizeComponents distinct radii (equal to 1e-12 relative;
+/// mono, bi and other discrete mixtures) the component index 0, 1, ... in ascending radius; otherwise the
+/// octave floor(log2(r / r_min)), r_min the smallest radius (class k holds 2^k r_min <= r < 2^(k+1) r_min).
+struct SizeClasses {
+  Eigen::VectorXd values;
+  bool discrete = false;
+  std::string rule;  ///< the rule applied, stored as the snapshot attribute size_class
+};
+SizeClasses sizeClasses(const Eigen::VectorXd& radius);
+
 /// Every output of the scene (and the sweep's), checked before anything is computed.
 void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::path>& inputs,
                   const std::vector<std::pair<std::filesystem::path, std::string>>& extra = {});

@@ -1,10 +1,23 @@
 // polydem relax: the time loop and its outputs (time series, snapshots, checkpoints, final state).
 // Outputs are written atomically (io::AtomicFile) except the time series, whose rows are flushed every
 // few seconds; a resumed run keeps the rows up to its checkpoint and appends.
+//
+// Contact files (output.contacts) and the arrays rattler and size_class: contactsOf() and the functions
+// after it. Contact forces are evaluated from the snapshot's state with the run's contact law: positions,
+// the synchronised velocities v(t) and angular velocities, and the tangential spring histories as the last
+// step left them. The spring part of every force is therefore the one the integrator used; the dashpot
+// part uses v(t), whereas the step used the predicted velocity v(t + dt/2) + dt/2 F(t)/m (or v(t + dt/2)
+// with run.dashpot_velocity = "half-step"), a difference of order c dt F/m per contact. Without dashpots
+// (restitution 1, no tangential damping) the contact forces on a particle sum to its force array to
+// round-off (minus gravity, viscous damping and walls). Candidates are the Verlet list's pairs (every
+// touching pair is in it); a pair is in contact when |d|^2 < (r_i + r_j)^2, the kernel's own test.
 #include <fmt/format.h>
 
+#include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <iterator>
 #include <numeric>
 #include <sstream>
 
@@ -17,6 +30,7 @@
 #include "core/io/hdf5_snapshot.hpp"
 #include "core/io/safe_output.hpp"
 #include "core/io/xdmf.hpp"
+#include "jamming/contact_network.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::app {
@@ -64,6 +78,164 @@ io::ParticleData snapshotOf(const integrators::DemSimulation& sim, const std::ma
 
 namespace {
 
+using Vec3 = Eigen::Vector3d;
+
+/// The run's normal law at one contact (the kernel's choice, contact/force_loop_instances.cpp).
+contact::NormalForce normalForce(const contact::ContactModel& model, double overlap, double rate, double meff,
+                                 double reff) {
+  const contact::ContactParameters& p = model.parameters();
+  if (p.normal == contact::NormalModel::Hertz) {
+    return contact::HertzNormal::force(model.hertzParams(), overlap, rate, meff, reff);
+  }
+  if (p.damping == contact::DampingModel::MassVelocity) {
+    return contact::LinearMassVelocityNormal::force(model.massVelocityParams(), overlap, rate, meff, reff);
+  }
+  return contact::LinearNormal::force(model.linearParams(), overlap, rate, meff, reff);
+}
+
+}  // namespace
+
+io::ContactData contactsOf(const integrators::DemSimulation& sim, const std::map<std::string, std::string>& attrs) {
+  const ParticleStore& p = sim.particles();
+  const Box& box = sim.box();
+  const contact::ContactModel& model = sim.model();
+  const contact::ContactParameters& law = model.parameters();
+  const contact::ContactList& list = sim.neighbours().list();
+  const contact::ContactHistory& history = sim.pairHistory();
+  const bool friction = law.usesFriction() && history.width() >= 3 && p.features().rotation;
+  const bool lammps = law.tangential == contact::TangentialModel::LammpsHistory;
+  const bool mindlin = law.tangential == contact::TangentialModel::HertzMindlin;
+
+  struct Row {
+    Index idI, idJ;
+    Vec3 centre, branch, ft;
+    double overlap, fn;
+  };
+  std::vector<Row> rows;
+  const Index n = p.count();
+  for (Index i = 0; i < n && i + 1 < static_cast<Index>(list.offset.size()); ++i) {
+    for (Index c = list.offset[std::size_t(i)]; c < list.offset[std::size_t(i) + 1]; ++c) {
+      const Index j = list.neighbour[std::size_t(c)];
+      const Vec3 d = box.minimumImage(p.position().col(i) - p.position().col(j));  // from j to i
+      const double sumR = p.radius()[i] + p.radius()[j];
+      if (d.squaredNorm() >= sumR * sumR) continue;
+      const double dist = d.norm();
+      const Vec3 nrm = d / dist;
+      const double overlap = sumR - dist;
+      const double meff = 1.0 / (p.inverseMass()[i] + p.inverseMass()[j]);
+      const double reff = p.radius()[i] * p.radius()[j] / sumR;
+      const Vec3 vrel = p.velocity().col(i) - p.velocity().col(j);
+      const contact::NormalForce nf = normalForce(model, overlap, -vrel.dot(nrm), meff, reff);
+      Vec3 ft = Vec3::Zero();
+      if (friction) {
+        const double ai = lammps ? p.radius()[i] : p.radius()[i] - 0.5 * overlap;
+        const double aj = lammps ? p.radius()[j] : p.radius()[j] - 0.5 * overlap;
+        const Vec3 vc = vrel - (ai * p.angularVelocity().col(i) + aj * p.angularVelocity().col(j)).cross(nrm);
+        const Vec3 vt = vc - vc.dot(nrm) * nrm;
+        const double* xi = history.values(static_cast<std::size_t>(c));
+        const Vec3 spring(xi[0], xi[1], xi[2]);
+        const double ct = law.tangentialDampingRatio * nf.damping;
+        // Hertz-Mindlin stores the spring force itself; Cundall-Strack and LAMMPS's variant the displacement
+        // xi, whose force is -k_t xi (also after a Coulomb cap, which resets xi to match the capped force).
+        ft = mindlin ? Vec3(spring - ct * vt) : Vec3(-law.tangentialStiffnessRatio * nf.stiffness * spring - ct * vt);
+      }
+      Row row{p.id()[std::size_t(i)], p.id()[std::size_t(j)], box.wrap(p.position().col(i)), -d, ft, overlap, nf.force};
+      if (row.idI > row.idJ) {  // rows name the smaller id first: the forces and the branch turn round
+        std::swap(row.idI, row.idJ);
+        row.centre = box.wrap(p.position().col(j));
+        row.branch = d;
+        row.ft = -ft;
+      }
+      rows.push_back(row);
+    }
+  }
+  std::sort(rows.begin(), rows.end(),
+            [](const Row& a, const Row& b) { return a.idI != b.idI ? a.idI < b.idI : a.idJ < b.idJ; });
+
+  io::ContactData out;
+  out.box = box;
+  out.time = sim.time();
+  out.attributes = attrs;
+  out.attributes["step"] = std::to_string(sim.step());
+  out.attributes["time"] = fmt::format("{:.17g}", sim.time());
+  out.attributes["contact"] = law.describe();
+  const auto m = static_cast<Index>(rows.size());
+  out.idI.resize(rows.size());
+  out.idJ.resize(rows.size());
+  out.centre.resize(3, m);
+  out.branch.resize(3, m);
+  out.overlap.resize(m);
+  out.normalForce.resize(m);
+  if (friction) out.tangentialForce = Eigen::Matrix3Xd(3, m);
+  for (Index k = 0; k < m; ++k) {
+    const Row& r = rows[std::size_t(k)];
+    out.idI[std::size_t(k)] = r.idI;
+    out.idJ[std::size_t(k)] = r.idJ;
+    out.centre.col(k) = r.centre;
+    out.branch.col(k) = r.branch;
+    out.overlap[k] = r.overlap;
+    out.normalForce[k] = r.fn;
+    if (friction) out.tangentialForce->col(k) = r.ft;
+  }
+  return out;
+}
+
+Eigen::VectorXd rattlerFlags(const io::ParticleData& d) {
+  jamming::ContactOptions options;
+  options.relativeGap = 0.0;  // in contact: touching or overlapping
+  options.minContacts = 4;    // d + 1
+  const SphereView spheres{d.position, d.radius};
+  jamming::ContactNetwork net;
+  try {
+    options.broadPhase = "linked-cell";
+    net = jamming::analyseContacts(spheres, d.box, options);
+  } catch (const ConfigError&) {  // a box too small for cells
+    options.broadPhase = "brute";
+    net = jamming::analyseContacts(spheres, d.box, options);
+  }
+  Eigen::VectorXd flags(d.count());
+  for (Index k = 0; k < d.count(); ++k) flags[k] = net.rattler[std::size_t(k)] ? 1.0 : 0.0;
+  return flags;
+}
+
+SizeClasses sizeClasses(const Eigen::VectorXd& radius) {
+  SizeClasses out;
+  const Index n = static_cast<Index>(radius.size());
+  out.values = Eigen::VectorXd::Zero(n);
+  if (n == 0) {
+    out.rule = "component index (no particles)";
+    return out;
+  }
+  std::vector<double> sorted(radius.data(), radius.data() + n);
+  std::sort(sorted.begin(), sorted.end());
+  // Components: runs of sorted radii that agree to 1e-12 relative (a uniform growth keeps equal radii equal).
+  std::vector<double> components{sorted.front()};
+  for (std::size_t k = 1; k < sorted.size(); ++k) {
+    if (sorted[k] > sorted[k - 1] * (1.0 + 1e-12)) components.push_back(sorted[k]);
+  }
+  const double rmin = sorted.front();
+  if (static_cast<int>(components.size()) <= kMaxSizeComponents) {
+    out.discrete = true;
+    out.rule = fmt::format("component index among {} distinct radii, ascending from 0", components.size());
+    for (Index i = 0; i < n; ++i) {
+      const auto it = std::upper_bound(components.begin(), components.end(), radius[i] * (1.0 + 1e-12));
+      out.values[i] = static_cast<double>(std::distance(components.begin(), it) - 1);
+    }
+    return out;
+  }
+  out.rule = fmt::format("floor(log2(r / r_min)), r_min = {:.17g} m", rmin);
+  for (Index i = 0; i < n; ++i) {
+    // Guard against log2 of an exact power of two rounding down (r = 2 r_min must be class 1).
+    double k = std::floor(std::log2(radius[i] / rmin));
+    if (rmin * std::exp2(k + 1.0) <= radius[i]) k += 1.0;
+    if (k > 0.0 && rmin * std::exp2(k) > radius[i]) k -= 1.0;
+    out.values[i] = std::max(k, 0.0);
+  }
+  return out;
+}
+
+namespace {
+
 /// The optional arrays `names` (output.arrays) of the snapshot `d` (id order, as snapshotOf()).
 /// Computed here, at snapshot time only: contact_count and max_overlap (m) count particle pairs that
 /// overlap (walls not included), found with a linked-cell pass over the snapshot (brute force where the
@@ -97,6 +269,12 @@ void addSnapshotArrays(io::ParticleData& d, const integrators::DemSimulation& si
         if (rotation) e += 0.5 * p.angularVelocity().col(i).squaredNorm() / p.inverseInertia()[i];
         a.values(0, k) = e;
       }
+    } else if (name == "rattler") {
+      a.values = rattlerFlags(d).transpose();
+    } else if (name == "size_class") {
+      const SizeClasses classes = sizeClasses(d.radius);
+      a.values = classes.values.transpose();
+      d.attributes["size_class"] = classes.rule;
     } else {  // contact_count, max_overlap
       a.values = Eigen::MatrixXd::Zero(1, n);
       const SphereView spheres{d.position, d.radius};
@@ -197,27 +375,45 @@ class LoopOutputs {
       : scene_(scene), run_(run), attributes_(std::move(attributes)) {}
   bool snapshots() const { return !scene_.snapshot.empty() && scene_.snapshotInterval > 0; }
   bool checkpoints() const { return !scene_.checkpoint.empty(); }
-  /// A resumed run's series starts with the snapshots the first run left on disk up to `step`.
+  /// A resumed run's series starts with the snapshots (and contact files) the first run left on disk up
+  /// to `step`.
   void resumeSeries(std::int64_t step) {
     if (!hdf5Snapshots()) return;
     const std::int64_t interval = std::max<std::int64_t>(scene_.snapshotInterval, 1);
     for (std::int64_t s = 0; s <= step; s += interval) {
       const std::filesystem::path file = withStep(scene_.snapshot, s);
       if (std::filesystem::exists(file)) frames_.push_back(io::xdmfFrameOf(file, io::readSnapshot(file)));
+      const std::filesystem::path contacts = io::contactPathFor(file);
+      if (scene_.contacts && std::filesystem::exists(contacts)) {
+        contactFrames_.push_back(io::xdmfContactFrameOf(contacts, io::readContacts(contacts)));
+      }
       if (scene_.snapshot.find("{step}") == std::string::npos) break;
     }
   }
-  /// The snapshot of this step, and for HDF5 snapshots the temporal series file rewritten with it.
+  /// The snapshot of this step and its contact file (output.contacts), and for HDF5 snapshots the
+  /// temporal series files rewritten with them.
   void writeSnapshot(const integrators::DemSimulation& sim) {
     const std::string file = withStep(scene_.snapshot, sim.step());
     io::ParticleData data = snapshotOf(sim, attributes_);
     addSnapshotArrays(data, sim, scene_.snapshotArrays);
     io::writeParticles(file, data);
-    if (!hdf5Snapshots()) return;
     // One pattern without {step} rewrites one file: its series holds one frame.
-    if (scene_.snapshot.find("{step}") == std::string::npos) frames_.clear();
-    frames_.push_back(io::xdmfFrameOf(file, data));
-    io::writeXdmfSeries(io::seriesPathFor(scene_.snapshot), frames_);
+    const bool oneFile = scene_.snapshot.find("{step}") == std::string::npos;
+    if (hdf5Snapshots()) {
+      if (oneFile) frames_.clear();
+      frames_.push_back(io::xdmfFrameOf(file, data));
+      io::writeXdmfSeries(io::seriesPathFor(scene_.snapshot), frames_);
+    }
+    if (!scene_.contacts) return;
+    const std::filesystem::path contactFile = io::contactPathFor(file);
+    io::ContactData contacts = contactsOf(sim, attributes_);
+    contacts.attributes["snapshot"] = std::filesystem::path(file).filename().string();
+    io::writeContacts(contactFile, contacts);
+    if (hdf5Snapshots()) {
+      if (oneFile) contactFrames_.clear();
+      contactFrames_.push_back(io::xdmfContactFrameOf(contactFile, contacts));
+      io::writeXdmfContactSeries(io::contactSeriesPathFor(scene_.snapshot), contactFrames_);
+    }
   }
   void writeCheckpoint(const integrators::DemSimulation& sim) {
     io::writeCheckpoint(scene_.checkpoint, makeCheckpoint(sim, run_));
@@ -243,7 +439,8 @@ class LoopOutputs {
 
   Stopwatch clock_;
   double lastCheckpoint_ = 0.0;
-  std::vector<io::XdmfFrame> frames_;  ///< the snapshots of the series file, in step order
+  std::vector<io::XdmfFrame> frames_;                ///< the snapshots of the series file, in step order
+  std::vector<io::XdmfContactFrame> contactFrames_;  ///< the contact files of the contact series
 };
 
 void printProgress(const integrators::DemSimulation& sim, std::int64_t total, std::int64_t firstStep,
@@ -307,6 +504,12 @@ void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::pa
   if (!scene.snapshot.empty()) outputs.emplace_back(withStep(scene.snapshot, 0), "output.snapshot");
   if (!scene.snapshot.empty() && io::isHdf5Path(scene.snapshot)) {
     outputs.emplace_back(io::seriesPathFor(scene.snapshot), "output.snapshot (its series file)");
+  }
+  if (scene.contacts && !scene.snapshot.empty()) {
+    outputs.emplace_back(io::contactPathFor(withStep(scene.snapshot, 0)), "output.contacts (the contact file)");
+    if (io::isHdf5Path(scene.snapshot)) {
+      outputs.emplace_back(io::contactSeriesPathFor(scene.snapshot), "output.contacts (its series file)");
+    }
   }
   if (!scene.checkpoint.empty()) outputs.emplace_back(scene.checkpoint, "output.checkpoint");
   for (std::size_t a = 0; a < outputs.size(); ++a) {

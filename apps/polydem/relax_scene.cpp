@@ -429,8 +429,8 @@ void readOutput(Section output, RelaxScene& s) {
   s.finalState = output.string("final", "");
   {
     // Optional per-particle arrays of the snapshots; computed only when listed.
-    static const std::set<std::string> kArrays = {"force",         "torque",      "angular_velocity",
-                                                  "contact_count", "max_overlap", "kinetic_energy"};
+    static const std::set<std::string> kArrays = {"force",       "torque",         "angular_velocity", "contact_count",
+                                                  "max_overlap", "kinetic_energy", "rattler",          "size_class"};
     const std::string list = output.words("arrays", "");
     std::size_t begin = 0;
     while (!list.empty() && begin <= list.size()) {
@@ -439,7 +439,7 @@ void readOutput(Section output, RelaxScene& s) {
       if (kArrays.count(name) == 0) {
         throw ConfigError(
             fmt::format("output.arrays: unknown array \"{}\"; known: force, torque, angular_velocity, "
-                        "contact_count, max_overlap, kinetic_energy",
+                        "contact_count, max_overlap, kinetic_energy, rattler, size_class",
                         name));
       }
       if (std::find(s.snapshotArrays.begin(), s.snapshotArrays.end(), name) != s.snapshotArrays.end()) {
@@ -449,6 +449,7 @@ void readOutput(Section output, RelaxScene& s) {
       begin = end + 1;
     }
   }
+  s.contacts = output.boolean("contacts", s.contacts);
   s.checkpoint = output.string("checkpoint", "");
   s.checkpointInterval = output.integerAtLeast("checkpoint_interval", s.checkpointInterval, 0);
   s.checkpointSeconds = output.number("checkpoint_seconds", s.checkpointSeconds);
@@ -462,14 +463,20 @@ void readOutput(Section output, RelaxScene& s) {
   }
   if (!s.snapshotArrays.empty()) {
     const std::string& f = s.snapshot;
-    const bool holdsArrays =
-        f.ends_with(".h5") || f.ends_with(".hdf5") || f.ends_with(".dump") || f.ends_with(".lammpstrj");
-    if (!holdsArrays) {
+    // Every snapshot format holds them (HDF5 datasets, dump and text columns) but LAMMPS data files.
+    const std::string name = std::filesystem::path(f).filename().string();
+    const bool lammpsData = f.ends_with(".data") || f.ends_with(".lmp") || name.starts_with("data.");
+    if (f.empty() || lammpsData) {
       throw ConfigError(
-          fmt::format("output.arrays needs HDF5 (.h5) or LAMMPS dump (.dump) snapshots; output.snapshot = "
+          fmt::format("output.arrays needs HDF5 (.h5), LAMMPS dump (.dump) or text snapshots; output.snapshot = "
                       "\"{}\" {}",
-                      f, f.empty() ? "is not set" : "is a text file, which has no columns for them"));
+                      f, f.empty() ? "is not set" : "is a LAMMPS data file, which has no columns for them"));
     }
+  }
+  if (s.contacts && s.snapshot.empty()) {
+    throw ConfigError(
+        "output.contacts = true writes one contact file beside every snapshot, but output.snapshot is not set: "
+        "give output.snapshot (e.g. \"relax_{step}.h5\"; text snapshots get CSV contact files)");
   }
   if (!s.snapshot.empty() && s.snapshotInterval > 0 && s.snapshot.find("{step}") == std::string::npos) {
     throw ConfigError(
@@ -604,7 +611,9 @@ std::string defaultSceneToml() {
   t += fmt::format("timeseries_interval = {}\n", s.timeseriesInterval);
   t += "final = \"\"  # particle file; empty = none\n";
   t += "arrays = []  # optional snapshot arrays: force, torque, angular_velocity, contact_count, max_overlap, "
-       "kinetic_energy\n";
+       "kinetic_energy, rattler, size_class\n";
+  t += fmt::format("contacts = {}  # a contact file per snapshot (HDF5 + .xmf beside .h5 snapshots, else CSV)\n",
+                   boolean(s.contacts));
   t += "checkpoint = \"\"  # HDF5 file for relax --resume; empty = none\n";
   t += fmt::format("checkpoint_interval = {}  # steps; 0 = none by steps\n", s.checkpointInterval);
   t += fmt::format("checkpoint_seconds = {}  # wall-clock s; 0 = none by time\n", num(s.checkpointSeconds));

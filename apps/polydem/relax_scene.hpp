@@ -13,8 +13,8 @@
 //   [run]        steps, dt_factor, dt, allow_unstable_dt, skin, broadphase, gravity, viscous_damping,
 //                dashpot_velocity, check_interval, max_overlap_fraction, energy_tolerance, kernel, spatial_sort,
 //                threads, progress_interval
-//   [output]     snapshot, snapshot_interval, timeseries, timeseries_interval, final, checkpoint,
-//                checkpoint_interval, checkpoint_seconds
+//   [output]     snapshot, snapshot_interval, timeseries, timeseries_interval, final, arrays, contacts,
+//                checkpoint, checkpoint_interval, checkpoint_seconds
 //
 // defaultSceneToml() prints every key with the default the reader uses (`polydem relax --print-defaults`);
 // tests/apps/relax_scene_test.cpp checks that examples/relax_uv10.toml states the same defaults.
@@ -67,6 +67,7 @@ struct RelaxScene {
   std::int64_t timeseriesInterval = 100;
   std::string finalState;                                ///< particle file; empty = none
   std::vector<std::string> snapshotArrays;               ///< optional snapshot arrays (kSnapshotArrays)
+  bool contacts = false;                                 ///< a contact file beside every snapshot
   std::string checkpoint;                                ///< HDF5 checkpoint file (relax --resume); empty = none
   std::int64_t checkpointInterval = 0;                   ///< steps between checkpoints; 0 = none by steps
   double checkpointSeconds = kDefaultCheckpointSeconds;  ///< wall-clock seconds between checkpoints; 0 = none

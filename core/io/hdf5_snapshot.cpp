@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "core/io/contacts.hpp"
 #include "core/io/hdf5_handle.hpp"
 #include "core/io/safe_output.hpp"
 #include "core/io/xdmf.hpp"
@@ -47,6 +48,18 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData&) {
 ParticleData readSnapshot(const std::filesystem::path& file) {
   throw ConfigError(
       fmt::format("{}: cannot read an HDF5 snapshot: polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
+}
+
+void writeContactsHdf5(const std::filesystem::path& file, const ContactData&) {
+  throw ConfigError(
+      fmt::format("{}: cannot write an HDF5 contact file: polydem was built with POLYDEM_WITH_HDF5=OFF; "
+                  "use text snapshots (their contact files are CSV)",
+                  file.string()));
+}
+
+ContactData readContacts(const std::filesystem::path& file) {
+  throw ConfigError(
+      fmt::format("{}: cannot read an HDF5 contact file: polydem was built with POLYDEM_WITH_HDF5=OFF", file.string()));
 }
 
 #else
@@ -155,15 +168,55 @@ void writeDoubleAttribute(const Context& ctx, hid_t location, const char* key, d
   if (H5Awrite(attribute.get(), H5T_NATIVE_DOUBLE, &value) < 0) ctx.failHdf5(label, "cannot write");
 }
 
-/// The XDMF sidecar of `file`, written to `sidecar` (a temporary that is renamed afterwards).
-void writeXdmf(const std::filesystem::path& file, const std::filesystem::path& sidecar, const ParticleData& data) {
-  const std::string sidecarName = xdmfPath(file).string();
-  const std::string xml = xdmfSnapshotXml(xdmfFrameOf(file, data), xdmfPath(file));
+/// The XDMF text `xml` of the sidecar `sidecarName`, written to `sidecar` (a temporary that is renamed afterwards).
+void writeXdmf(const std::string& sidecarName, const std::filesystem::path& sidecar, const std::string& xml) {
   std::ofstream out(sidecar, std::ios::binary | std::ios::trunc);
   if (!out) throw InputError(fmt::format("{}: cannot open for writing: {}", sidecarName, std::strerror(errno)));
   out.write(xml.data(), static_cast<std::streamsize>(xml.size()));
   out.close();
   if (!out) throw InputError(fmt::format("{}: write failed: {}", sidecarName, std::strerror(errno)));
+}
+
+/// ConfigError for attribute keys or values HDF5 cannot store (empty keys, NUL characters).
+void requireStorableAttributes(const std::map<std::string, std::string>& attributes) {
+  for (const auto& [key, value] : attributes) {
+    if (key.empty()) throw ConfigError("particle data: attribute keys must not be empty");
+    if (key.find('\0') != std::string::npos || value.find('\0') != std::string::npos) {
+      throw ConfigError(
+          fmt::format("particle data: attribute '{}' contains a NUL character, which HDF5 strings cannot hold",
+                      key.substr(0, key.find('\0'))));
+    }
+  }
+}
+
+/// An empty in-memory HDF5 file for the temporary of `atomic` (written out by hdf5::writeImage()).
+Handle createFile(const Context& ctx, const AtomicFile& atomic) {
+  const Handle fcpl = untimedCreation(ctx, H5P_FILE_CREATE, "the root group");
+  if (!std::ofstream(atomic.temporary(), std::ios::binary)) {
+    ctx.fail(fmt::format("cannot create HDF5 file (is the directory there and writable?)"));
+  }
+  Handle h5 = hdf5::createInMemoryFile(atomic.temporary().string(), fcpl.get());
+  if (!h5.valid()) ctx.fail(fmt::format("cannot create HDF5 file{}", hdf5Detail()));
+  return h5;
+}
+
+/// /box/lengths and /box/periodic.
+void writeBox(const Context& ctx, hid_t f, const Box& box) {
+  const Handle group = createGroup(ctx, f, "/box");
+  writeDataset(ctx, f, "/box/lengths", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3}, box.lengths().data());
+  const std::int8_t periodic[3] = {std::int8_t(box.periodic(0)), std::int8_t(box.periodic(1)),
+                                   std::int8_t(box.periodic(2))};
+  writeDataset(ctx, f, "/box/periodic", H5T_STD_I8LE, H5T_NATIVE_INT8, {3}, periodic);
+}
+
+/// /parameters with one string attribute per entry, and the root attribute time.
+void writeParametersAndTime(const Context& ctx, hid_t f, const std::map<std::string, std::string>& attributes,
+                            double time) {
+  {
+    const Handle parameters = createGroup(ctx, f, "/parameters");
+    for (const auto& [key, value] : attributes) writeStringAttribute(ctx, parameters.get(), "/parameters", key, value);
+  }
+  writeDoubleAttribute(ctx, f, "time", time);
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -461,14 +514,7 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
     throw ConfigError(fmt::format("{}: an HDF5 snapshot must not end in .xmf: that name is taken by its XDMF sidecar",
                                   file.string()));
   }
-  for (const auto& [key, value] : data.attributes) {
-    if (key.empty()) throw ConfigError("particle data: attribute keys must not be empty");
-    if (key.find('\0') != std::string::npos || value.find('\0') != std::string::npos) {
-      throw ConfigError(
-          fmt::format("particle data: attribute '{}' contains a NUL character, which HDF5 strings cannot hold",
-                      key.substr(0, key.find('\0'))));
-    }
-  }
+  requireStorableAttributes(data.attributes);
 
   const Context ctx(file);
   const QuietErrors quiet;
@@ -476,12 +522,7 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
   // interrupted or failed write leaves the previous snapshot (or nothing) under the final names.
   AtomicFile atomicH5(file);
   AtomicFile atomicXdmf(xdmfPath(file));
-  const Handle fcpl = untimedCreation(ctx, H5P_FILE_CREATE, "the root group");
-  if (!std::ofstream(atomicH5.temporary(), std::ios::binary)) {
-    ctx.fail(fmt::format("cannot create HDF5 file (is the directory there and writable?)"));
-  }
-  Handle h5 = hdf5::createInMemoryFile(atomicH5.temporary().string(), fcpl.get());
-  if (!h5.valid()) ctx.fail(fmt::format("cannot create HDF5 file{}", hdf5Detail()));
+  Handle h5 = createFile(ctx, atomicH5);
   const hid_t f = h5.get();
   const auto n = static_cast<hsize_t>(data.count());
   {
@@ -515,45 +556,34 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data) 
     for (std::size_t i = 0; i < vertices.size(); ++i) vertices[i] = static_cast<std::int32_t>(i);
     writeDataset(ctx, f, "/xdmf/polyvertex", H5T_STD_I32LE, H5T_NATIVE_INT32, {n, 1}, vertices.data());
   }
-  {
-    const Handle box = createGroup(ctx, f, "/box");
-    writeDataset(ctx, f, "/box/lengths", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3}, data.box.lengths().data());
-    const std::int8_t periodic[3] = {std::int8_t(data.box.periodic(0)), std::int8_t(data.box.periodic(1)),
-                                     std::int8_t(data.box.periodic(2))};
-    writeDataset(ctx, f, "/box/periodic", H5T_STD_I8LE, H5T_NATIVE_INT8, {3}, periodic);
-  }
-  {
-    const Handle parameters = createGroup(ctx, f, "/parameters");
-    for (const auto& [key, value] : data.attributes) {
-      writeStringAttribute(ctx, parameters.get(), "/parameters", key, value);
-    }
-  }
-  writeDoubleAttribute(ctx, f, "time", data.time);
+  writeBox(ctx, f, data.box);
+  writeParametersAndTime(ctx, f, data.attributes, data.time);
   if (!hdf5::writeImage(h5, atomicH5.temporary().string())) {
     ctx.fail(fmt::format("cannot write the HDF5 file (disk full or not writable?){}", hdf5Detail()));
   }
 
-  writeXdmf(file, atomicXdmf.temporary(), data);
+  writeXdmf(xdmfPath(file).string(), atomicXdmf.temporary(), xdmfSnapshotXml(xdmfFrameOf(file, data), xdmfPath(file)));
   atomicH5.commit();
   atomicXdmf.commit();
 }
 
-ParticleData readSnapshot(const std::filesystem::path& file) {
-  const Context ctx(file);
+namespace {
+
+/// Open `file` read-only (call under QuietErrors). InputError if it is missing or not HDF5.
+Handle openFile(const Context& ctx, const std::filesystem::path& file) {
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) ctx.fail("no such file");
   if (std::filesystem::is_directory(file, ec)) ctx.fail("is a directory, not an HDF5 file");
-
-  const QuietErrors quiet;
   const htri_t isHdf5 = H5Fis_hdf5(ctx.name().c_str());
   if (isHdf5 < 0) ctx.fail(fmt::format("cannot open{}", hdf5Detail()));
   if (isHdf5 == 0) ctx.fail("not an HDF5 file");
   Handle h5(H5Fopen(ctx.name().c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!h5.valid()) ctx.fail(fmt::format("cannot open HDF5 file{}", hdf5Detail()));
-  const hid_t f = h5.get();
+  return h5;
+}
 
-  ParticleData data;
-  // The box first: wall checks need it, and a short dataset is easier to get right.
+/// /box/lengths and /box/periodic, validated.
+Box readBox(const Context& ctx, hid_t f) {
   Eigen::Vector3d lengths;
   {
     const Eigen::VectorXd values = readDoubles(ctx, f, "/box/lengths", 3);
@@ -576,7 +606,20 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
       boundaries[std::size_t(k)] = values[std::size_t(k)] == 1 ? Boundary::Periodic : Boundary::Wall;
     }
   }
-  data.box = Box(lengths, boundaries);
+  return Box(lengths, boundaries);
+}
+
+}  // namespace
+
+ParticleData readSnapshot(const std::filesystem::path& file) {
+  const Context ctx(file);
+  const QuietErrors quiet;
+  Handle h5 = openFile(ctx, file);
+  const hid_t f = h5.get();
+
+  ParticleData data;
+  // The box first: wall checks need it, and a short dataset is easier to get right.
+  data.box = readBox(ctx, f);
 
   // The particle count comes from /particles/position; every other per-particle dataset must agree.
   hsize_t n = 0;
@@ -620,6 +663,102 @@ ParticleData readSnapshot(const std::filesystem::path& file) {
   data.attributes = readParameters(ctx, f);
   data.arrays = readArrays(ctx, f, n);
   validate(ctx, data);
+  return data;
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Contact files (core/io/contacts.hpp)
+
+void writeContactsHdf5(const std::filesystem::path& file, const ContactData& data) {
+  requireStorableAttributes(data.attributes);
+  const Context ctx(file);
+  const QuietErrors quiet;
+  AtomicFile atomicH5(file);
+  AtomicFile atomicXdmf(contactXdmfPath(file));
+  Handle h5 = createFile(ctx, atomicH5);
+  const hid_t f = h5.get();
+  const auto m = static_cast<hsize_t>(data.count());
+  {
+    const Handle contacts = createGroup(ctx, f, "/contacts");
+    static_assert(sizeof(Index) == 4, "/contacts/id_i is stored as int32");
+    writeDataset(ctx, f, "/contacts/id_i", H5T_STD_I32LE, H5T_NATIVE_INT32, {m}, data.idI.data());
+    writeDataset(ctx, f, "/contacts/id_j", H5T_STD_I32LE, H5T_NATIVE_INT32, {m}, data.idJ.data());
+    writeDataset(ctx, f, "/contacts/centre", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m, 3}, data.centre.data());
+    writeDataset(ctx, f, "/contacts/branch", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m, 3}, data.branch.data());
+    writeDataset(ctx, f, "/contacts/overlap", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m}, data.overlap.data());
+    writeDataset(ctx, f, "/contacts/fn", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m}, data.normalForce.data());
+    Eigen::Matrix3Xd normal(3, data.count());
+    for (Index c = 0; c < data.count(); ++c) normal.col(c) = data.normalForceVector(c);
+    writeDataset(ctx, f, "/contacts/normal_force", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m, 3}, normal.data());
+    if (data.tangentialForce) {
+      writeDataset(ctx, f, "/contacts/tangential_force", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {m, 3},
+                   data.tangentialForce->data());
+    }
+  }
+  {
+    // The line cells of the XDMF sidecar: contact c runs from point 2c (centre of i) to 2c + 1 (centre + branch).
+    const Handle xdmf = createGroup(ctx, f, "/xdmf");
+    Eigen::Matrix3Xd points(3, 2 * data.count());
+    std::vector<std::int32_t> lines(static_cast<std::size_t>(2 * m));
+    for (Index c = 0; c < data.count(); ++c) {
+      points.col(2 * c) = data.centre.col(c);
+      points.col(2 * c + 1) = data.centre.col(c) + data.branch.col(c);
+      lines[std::size_t(2 * c)] = static_cast<std::int32_t>(2 * c);
+      lines[std::size_t(2 * c + 1)] = static_cast<std::int32_t>(2 * c + 1);
+    }
+    writeDataset(ctx, f, "/xdmf/points", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {2 * m, 3}, points.data());
+    writeDataset(ctx, f, "/xdmf/lines", H5T_STD_I32LE, H5T_NATIVE_INT32, {m, 2}, lines.data());
+  }
+  writeBox(ctx, f, data.box);
+  writeParametersAndTime(ctx, f, data.attributes, data.time);
+  if (!hdf5::writeImage(h5, atomicH5.temporary().string())) {
+    ctx.fail(fmt::format("cannot write the HDF5 file (disk full or not writable?){}", hdf5Detail()));
+  }
+  writeXdmf(contactXdmfPath(file).string(), atomicXdmf.temporary(),
+            xdmfContactXml(xdmfContactFrameOf(file, data), contactXdmfPath(file)));
+  atomicH5.commit();
+  atomicXdmf.commit();
+}
+
+ContactData readContacts(const std::filesystem::path& file) {
+  const Context ctx(file);
+  const QuietErrors quiet;
+  Handle h5 = openFile(ctx, file);
+  const hid_t f = h5.get();
+  ContactData data;
+  data.box = readBox(ctx, f);
+  hsize_t m = 0;
+  {
+    const Dataset overlap = openDataset(ctx, f, "/contacts/overlap");
+    if (overlap.shape.size() != 1) {
+      ctx.fail(overlap.label,
+               fmt::format("expected a 1-d array (one entry per contact), got {}", shapeText(overlap.shape)));
+    }
+    m = overlap.shape[0];
+    if (m > hsize_t(std::numeric_limits<Index>::max())) {
+      ctx.fail(overlap.label, fmt::format("{} contacts exceed the maximum {}", m, std::numeric_limits<Index>::max()));
+    }
+  }
+  data.overlap = readDoubles(ctx, f, "/contacts/overlap", m);
+  data.normalForce = readDoubles(ctx, f, "/contacts/fn", m);
+  data.centre = readRows(ctx, f, "/contacts/centre", m);
+  data.branch = readRows(ctx, f, "/contacts/branch", m);
+  if (linkExists(f, "/contacts/tangential_force"))
+    data.tangentialForce = readRows(ctx, f, "/contacts/tangential_force", m);
+  const std::vector<long long> idI = readIntegers(ctx, f, "/contacts/id_i", m);
+  const std::vector<long long> idJ = readIntegers(ctx, f, "/contacts/id_j", m);
+  data.idI.resize(idI.size());
+  data.idJ.resize(idJ.size());
+  for (std::size_t c = 0; c < idI.size(); ++c) {
+    if (!(idI[c] >= 0 && idI[c] < idJ[c] && idJ[c] <= std::numeric_limits<Index>::max())) {
+      ctx.fail(datasetLabel("/contacts/id_i"),
+               fmt::format("contact {}: ids ({}, {}) must satisfy 0 <= id_i < id_j", c, idI[c], idJ[c]));
+    }
+    data.idI[c] = static_cast<Index>(idI[c]);
+    data.idJ[c] = static_cast<Index>(idJ[c]);
+  }
+  data.time = readTime(ctx, f);
+  data.attributes = readParameters(ctx, f);
   return data;
 }
 

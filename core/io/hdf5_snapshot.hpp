@@ -23,6 +23,7 @@
 // Built without HDF5 (POLYDEM_WITH_HDF5=OFF), readSnapshot() and writeSnapshot() throw ConfigError.
 #include <filesystem>
 
+#include "core/io/contacts.hpp"
 #include "core/io/particle_data.hpp"
 
 namespace polydem::io {
@@ -38,6 +39,10 @@ void writeSnapshot(const std::filesystem::path& file, const ParticleData& data);
 /// readText(): finite values, positive radii, unique ids, centres inside walled axes; centres outside
 /// [0, L) on periodic axes are wrapped. Throws InputError "FILE: dataset PATH: problem".
 ParticleData readSnapshot(const std::filesystem::path& file);
+
+/// The HDF5 half of writeContacts() (core/io/contacts.hpp, which has the layout): `file` and its sidecar
+/// contactXdmfPath(file), each atomically and byte-deterministic. Call writeContacts(), which checks the data.
+void writeContactsHdf5(const std::filesystem::path& file, const ContactData& data);
 
 /// The XDMF sidecar of an HDF5 snapshot: `file` with its extension replaced by .xmf.
 std::filesystem::path xdmfPath(const std::filesystem::path& file);

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -136,6 +137,22 @@ int hexDigit(char c) {
   return -1;
 }
 
+/// A name the text format accepts for an array column: letters, digits and '_', not a built-in column
+/// (x, vx, id, ...) and not a name taken by a built-in dataset (particle_data.hpp).
+bool isArrayColumnName(std::string_view name) {
+  if (name.empty() ||
+      !std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isalnum(c) != 0 || c == '_'; })) {
+    return false;
+  }
+  for (std::string_view builtin : kColumnName) {
+    if (name == builtin) return false;
+  }
+  for (std::string_view reserved : {"position", "velocity", "angular_velocity", "radius"}) {
+    if (name == reserved) return false;
+  }
+  return true;
+}
+
 class TextReader {
  public:
   TextReader(const std::filesystem::path& file, std::array<Boundary, 3> defaultBoundaries)
@@ -186,6 +203,18 @@ class TextReader {
     if (has(Column::Vx)) data.velocity = Eigen::Map<const Eigen::Matrix3Xd>(velocity_.data(), 3, expected_);
     if (has(Column::Wx)) {
       data.angularVelocity = Eigen::Map<const Eigen::Matrix3Xd>(angularVelocity_.data(), 3, expected_);
+    }
+    const std::size_t width = arrayColumnNames_.size();
+    std::size_t first = 0;
+    for (const auto& [name, components] : arrays_) {
+      ParticleArray array{name, Eigen::MatrixXd(components, expected_)};
+      for (Index i = 0; i < expected_; ++i) {
+        for (int k = 0; k < components; ++k) {
+          array.values(k, i) = arrayValues_[static_cast<std::size_t>(i) * width + first + static_cast<std::size_t>(k)];
+        }
+      }
+      first += static_cast<std::size_t>(components);
+      data.arrays.push_back(std::move(array));
     }
     if (has(Column::Id)) {
       data.id = std::move(id_);
@@ -272,7 +301,7 @@ class TextReader {
   void parseColumns(std::string_view rest) {
     std::vector<std::string_view> words;
     splitWhitespace(rest, words);
-    constexpr std::string_view kExpected = "expected [id] x y z r [vx vy vz] [wx wy wz]";
+    constexpr std::string_view kExpected = "expected [id] x y z r [vx vy vz] [wx wy wz] [array columns]";
     std::vector<Column> columns;
     std::size_t w = 0;
     const auto take = [&](std::initializer_list<Column> group) {
@@ -294,8 +323,33 @@ class TextReader {
     }
     take({Column::Vx, Column::Vy, Column::Vz});
     take({Column::Wx, Column::Wy, Column::Wz});
-    if (w != words.size()) {
-      fail(lineNumber_, fmt::format("columns comment: {}, got {} at word {}", kExpected, formatToken(words[w]), w + 1));
+    // Optional arrays (ParticleData::arrays): NAME for one component, NAME_x NAME_y NAME_z for three.
+    while (w < words.size()) {
+      const std::string_view word = words[w];
+      if (!isArrayColumnName(word)) {
+        fail(lineNumber_, fmt::format("columns comment: {}, got {} at word {} (an array column is letters, digits "
+                                      "and '_', not a built-in column or dataset name)",
+                                      kExpected, formatToken(word), w + 1));
+      }
+      std::string name(word);
+      int components = 1;
+      if (word.ends_with("_x") && w + 2 < words.size()) {
+        const std::string base(word.substr(0, word.size() - 2));
+        if (words[w + 1] == base + "_y" && words[w + 2] == base + "_z" && isArrayColumnName(base)) {
+          name = base;
+          components = 3;
+        }
+      }
+      for (const auto& [other, c] : arrays_) {
+        if (other == name) {
+          fail(lineNumber_, fmt::format("columns comment: array {} appears twice", formatToken(name)));
+        }
+      }
+      for (int k = 0; k < components; ++k) {
+        arrayColumnNames_.emplace_back(words[w + static_cast<std::size_t>(k)]);
+      }
+      arrays_.emplace_back(name, components);
+      w += static_cast<std::size_t>(components);
     }
     columns_ = std::move(columns);
   }
@@ -465,10 +519,11 @@ class TextReader {
       if (columns_.empty()) inferColumns(tokens.size());
       firstDataLine_ = lineNumber_;
     }
-    if (tokens.size() != columns_.size()) {
+    const std::size_t width = columns_.size() + arrayColumnNames_.size();
+    if (tokens.size() != width) {
       if (columnsLine_ != 0) {
-        fail(lineNumber_, fmt::format("expected {} columns (as declared on line {}), got {}", columns_.size(),
-                                      columnsLine_, tokens.size()));
+        fail(lineNumber_,
+             fmt::format("expected {} columns (as declared on line {}), got {}", width, columnsLine_, tokens.size()));
       }
       fail(lineNumber_,
            fmt::format("expected {} columns (as on line {}), got {}", columns_.size(), firstDataLine_, tokens.size()));
@@ -494,6 +549,17 @@ class TextReader {
         fail(lineNumber_, fmt::format("column {} ({}): value {} is not finite", c + 1, name, formatToken(token)));
       }
       values[static_cast<int>(columns_[c])] = parsed.value;
+    }
+    for (std::size_t a = 0; a < arrayColumnNames_.size(); ++a) {
+      const std::size_t c = columns_.size() + a;
+      const std::string_view token = tokens[c];
+      const std::string& name = arrayColumnNames_[a];
+      const Parsed parsed = parseDouble(token);
+      if (parsed.status != Parsed::Ok || !std::isfinite(parsed.value)) {
+        fail(lineNumber_,
+             fmt::format("column {} ({}): expected a finite number, got {}", c + 1, name, formatToken(token)));
+      }
+      arrayValues_.push_back(parsed.value);
     }
     const std::size_t offset = has(Column::Id) ? 1 : 0;  // token index of x
     const double r = values[static_cast<int>(Column::R)];
@@ -541,7 +607,10 @@ class TextReader {
   int timeLine_ = 0;
   int headerLine_ = 0;
   int firstDataLine_ = 0;
-  std::vector<Column> columns_;  // from `# columns:` or the first data line
+  std::vector<Column> columns_;                      // from `# columns:` or the first data line
+  std::vector<std::pair<std::string, int>> arrays_;  // array columns after the built-in ones: name, components
+  std::vector<std::string> arrayColumnNames_;        // one per array column, in file order
+  std::vector<double> arrayValues_;                  // arrayColumnNames_.size() per particle
   Index expected_ = 0;
   Index found_ = 0;
   double time_ = 0.0;
@@ -592,8 +661,16 @@ void writeText(const std::filesystem::path& file, const ParticleData& data) {
   auto sink = std::back_inserter(buffer);
   fmt::format_to(sink,
                  "# polydem particles (SI units): metadata comments, the header N Lx Ly Lz, one line per particle\n");
-  fmt::format_to(sink, "# columns: {}x y z r{}{}\n", withId ? "id " : "", withVelocity ? " vx vy vz" : "",
-                 withAngular ? " wx wy wz" : "");
+  std::string arrayColumns;
+  for (const ParticleArray& a : data.arrays) {
+    if (!isArrayColumnName(a.name)) {
+      throw ConfigError(
+          fmt::format("{}: particle data: array '{}' has the name of a built-in text column", name, a.name));
+    }
+    arrayColumns += a.values.rows() == 3 ? fmt::format(" {0}_x {0}_y {0}_z", a.name) : " " + a.name;
+  }
+  fmt::format_to(sink, "# columns: {}x y z r{}{}{}\n", withId ? "id " : "", withVelocity ? " vx vy vz" : "",
+                 withAngular ? " wx wy wz" : "", arrayColumns);
   fmt::format_to(sink, "# boundaries: {} {} {}\n", boundaryWord(box.boundary(0)), boundaryWord(box.boundary(1)),
                  boundaryWord(box.boundary(2)));
   fmt::format_to(sink, "# time: {:.17g}\n", data.time);
@@ -620,6 +697,9 @@ void writeText(const std::filesystem::path& file, const ParticleData& data) {
     if (withAngular) {
       const auto w = data.angularVelocity->col(i);
       fmt::format_to(sink, " {:.17g} {:.17g} {:.17g}", w[0], w[1], w[2]);
+    }
+    for (const ParticleArray& a : data.arrays) {
+      for (Eigen::Index k = 0; k < a.values.rows(); ++k) fmt::format_to(sink, " {:.17g}", a.values(k, i));
     }
     buffer.push_back('\n');
     if (buffer.size() > (1u << 16)) flush();

@@ -5,7 +5,7 @@
 // word is `boundaries:`, `columns:`, `time:` or `attribute:` are metadata and must be well formed; any
 // other comment is free text. '#' also starts a trailing comment; blank lines and CR LF are accepted.
 //
-//   # columns: x y z r vx vy vz wx wy wz         <- optional: [id] x y z r [vx vy vz] [wx wy wz], in order
+//   # columns: x y z r vx vy vz wx wy wz         <- optional: [id] x y z r [vx vy vz] [wx wy wz] [arrays], in order
 //   # boundaries: periodic periodic wall         <- optional; periodic|wall per axis x y z
 //   # time: 12.5                                 <- optional; seconds, finite (default 0)
 //   # attribute: reduced_pressure = 1e12         <- optional, one per ParticleData::attributes entry
@@ -16,7 +16,10 @@
 // Columns: without a `# columns:` line the count decides: 4 (x y z r), 7 (+ vx vy vz) or 10 (+ wx wy wz,
 // angular velocity in rad/s). `id` (a non-negative integer, unique) is only read with a `# columns:`
 // line; without it ids are 0..N-1 in line order. The writer adds the id column only when the ids are
-// not 0..N-1.
+// not 0..N-1. Optional arrays (ParticleData::arrays, e.g. relax's output.arrays) follow the built-in
+// columns, only with a `# columns:` line: a 1-component array as its name, a 3-component one as NAME_x
+// NAME_y NAME_z (three consecutive words of that form are read as one 3-component array); names are
+// letters, digits and '_', not a built-in column or dataset name; values finite numbers.
 // Attributes: `# attribute: KEY = VALUE`. KEY and VALUE are each either bare (KEY: no blank, '=' or
 // '"'; VALUE: the rest of the line, blanks trimmed) or a double-quoted string with the escapes \\ \"
 // \n \r \t and \xHH (any byte), so every key and value round-trips (the writer quotes whatever is

@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/io/contacts.hpp"
 #include "core/io/particle_data.hpp"
 
 namespace polydem::io {
@@ -50,6 +51,29 @@ std::string xdmfSeriesXml(std::span<const XdmfFrame> frames, const std::filesyst
 
 /// Write xdmfSeriesXml() to `xmf` atomically. Throws InputError if it cannot be written.
 void writeXdmfSeries(const std::filesystem::path& xmf, std::span<const XdmfFrame> frames);
+
+/// What an XDMF description needs to know about one contact file (core/io/contacts.hpp).
+struct XdmfContactFrame {
+  std::filesystem::path h5;                              ///< the HDF5 contact file
+  double time = 0.0;                                     ///< s
+  Index count = 0;                                       ///< contacts
+  Eigen::Vector3d boxLengths = Eigen::Vector3d::Ones();  ///< m
+  bool tangential = false;                               ///< holds /contacts/tangential_force
+};
+
+/// The frame of the contacts `data` written to `h5`.
+XdmfContactFrame xdmfContactFrameOf(const std::filesystem::path& h5, const ContactData& data);
+
+/// The sidecar text of one contact file: one Uniform grid of 2-node Polyline cells (one per contact, from
+/// the centre of i to centre + branch) with the per-contact data as cell attributes.
+std::string xdmfContactXml(const XdmfContactFrame& frame, const std::filesystem::path& xmf);
+
+/// The temporal collection of contact files, as xdmfSeriesXml(): the box collection, then the contacts
+/// (each frame also carries its line ends as a node attribute "position", for meshio's TimeSeriesReader).
+std::string xdmfContactSeriesXml(std::span<const XdmfContactFrame> frames, const std::filesystem::path& xmf);
+
+/// Write xdmfContactSeriesXml() to `xmf` atomically. Throws InputError if it cannot be written.
+void writeXdmfContactSeries(const std::filesystem::path& xmf, std::span<const XdmfContactFrame> frames);
 
 /// The series file that accompanies a snapshot pattern such as "out/snap_{step}.h5": "{step}" replaced
 /// by "series" and the extension by .xmf ("out/snap_series.xmf"); without "{step}", "NAME_series.xmf".

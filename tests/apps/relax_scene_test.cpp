@@ -244,5 +244,36 @@ TEST(RelaxScene, NonFiniteAndNegativeNumbersAreNamed) {
   EXPECT_FALSE(parseRelaxScene(kMinimal).boundariesGiven);
 }
 
+// output.contacts and the arrays rattler, size_class (issue 21).
+TEST(RelaxScene, ContactFilesAreOffUnlessAskedForAndNeedASnapshot) {
+  EXPECT_FALSE(parseRelaxScene(kMinimal).contacts);
+  const RelaxScene on = parseRelaxScene(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.contacts=true"});
+  EXPECT_TRUE(on.contacts);
+  EXPECT_TRUE(parseRelaxScene(kMinimal, {"output.snapshot=\"s_{step}.txt\"", "output.contacts=true"}).contacts);
+  EXPECT_THAT(configError(kMinimal, {"output.contacts=true"}),
+              HasSubstr("output.contacts = true writes one contact file beside every snapshot, but output.snapshot "
+                        "is not set"));
+  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.contacts=\"yes\""}),
+              HasSubstr("output.contacts (from --set) must be true or false"));
+  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.contacts=1"}),
+              HasSubstr("output.contacts"));
+}
+
+TEST(RelaxScene, RattlerAndSizeClassAreKnownArrays) {
+  const RelaxScene s =
+      parseRelaxScene(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.arrays=[\"rattler\", \"size_class\"]"});
+  EXPECT_EQ(s.snapshotArrays, (std::vector<std::string>{"rattler", "size_class"}));
+  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.h5\"", "output.arrays=[\"rattlers\"]"}),
+              HasSubstr("unknown array \"rattlers\"; known: force, torque, angular_velocity, contact_count, "
+                        "max_overlap, kinetic_energy, rattler, size_class"));
+  EXPECT_EQ(parseRelaxScene(kMinimal, {"output.snapshot=\"s_{step}.txt\"", "output.arrays=[\"size_class\"]"})
+                .snapshotArrays.size(),
+            1u)
+      << "text snapshots hold arrays as columns";
+  EXPECT_THAT(configError(kMinimal, {"output.snapshot=\"s_{step}.data\"", "output.arrays=[\"size_class\"]"}),
+              HasSubstr("is a LAMMPS data file, which has no columns for them"));
+  EXPECT_THAT(configError(kMinimal, {"output.arrays=[\"size_class\"]"}), HasSubstr("output.arrays needs"));
+}
+
 }  // namespace
 }  // namespace polydem::app

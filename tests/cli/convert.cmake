@@ -10,5 +10,17 @@ polydem_cli_test(NAME convert_series_not_xmf COMMAND convert --series s.h5 a.h5 
 # relax output.arrays (issue 21): unknown names and snapshots that cannot hold arrays are scene errors.
 polydem_cli_test(NAME relax_arrays_unknown COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.h5\"
                  --set output.arrays=[\"force\",\"bogus\"] EXIT 2 PASS "output.arrays: unknown array \"bogus\"" LABELS relax)
-polydem_cli_test(NAME relax_arrays_text_snapshot COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.txt\"
-                 --set output.arrays=[\"force\"] EXIT 2 PASS "output.arrays needs HDF5" LABELS relax)
+polydem_cli_test(NAME relax_arrays_data_snapshot COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.data\"
+                 --set output.arrays=[\"force\"] EXIT 2 PASS "is a LAMMPS data file, which has no columns" LABELS relax)
+# relax output.contacts (issue 21): off unless asked for, needs a snapshot, a boolean, a file of its own.
+polydem_cli_test(NAME relax_contacts_without_snapshot COMMAND relax relax_small.toml -q --set output.contacts=true
+                 EXIT 2 PASS "output.contacts = true writes one contact file beside every snapshot" LABELS relax)
+polydem_cli_test(NAME relax_contacts_not_boolean COMMAND relax relax_small.toml -q --set output.snapshot=\"c_{step}.h5\"
+                 --set output.contacts=\"yes\" EXIT 2 PASS "must be true or false" LABELS relax)
+polydem_cli_test(NAME relax_contacts_file_is_final COMMAND relax relax_small.toml -q --set output.snapshot=\"c_{step}.txt\"
+                 --set output.contacts=true --set output.final=\"c_000000000_contacts.csv\" EXIT 2
+                 PASS "output.final and output.contacts \\(the contact file\\) are the same file" LABELS relax)
+polydem_cli_test(NAME relax_arrays_unknown_lists_new COMMAND relax relax_small.toml -q --set output.snapshot=\"a_{step}.h5\"
+                 --set output.arrays=[\"rattlers\"] EXIT 2 PASS "kinetic_energy, rattler, size_class" LABELS relax)
+polydem_cli_test(NAME minimise_contacts_without_output COMMAND minimise -n 20 --contacts EXIT 2
+                 PASS "--contacts writes the contact file beside the packing: give -o FILE too" LABELS minimise)

@@ -14,6 +14,7 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "core/errors.hpp"
@@ -211,6 +212,30 @@ TEST_F(TextFileTest, AngularVelocitiesRoundTrip) {
   ASSERT_TRUE(b.angularVelocity.has_value());
   EXPECT_EQ(b.angularVelocity->col(0), Eigen::Vector3d(4, 5, 6));
   EXPECT_EQ(b.velocity->col(0), Eigen::Vector3d(1, 2, 3));
+}
+
+TEST_F(TextFileTest, ArraysRoundTripAsExtraColumns) {
+  ParticleData data = randomData(20, true, 9);
+  data.arrays.push_back({"force", Eigen::MatrixXd::Random(3, 20) * 1e-3});
+  data.arrays.push_back({"rattler", Eigen::MatrixXd::Constant(1, 20, 1.0)});
+  data.arrays.push_back({"max_x", Eigen::MatrixXd::Random(1, 20)});  // a scalar whose name ends in _x
+  data.arrays[0].values(1, 3) = -0.0;
+  writeText(dir_ / "arrays.txt", data);
+  std::ifstream in(dir_ / "arrays.txt");
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("# columns: x y z r vx vy vz force_x force_y force_z rattler max_x\n"), std::string::npos)
+      << text.str();
+  const ParticleData back = readText(dir_ / "arrays.txt");
+  ASSERT_EQ(back.arrays.size(), 3u);
+  for (std::size_t a = 0; a < 3; ++a) {
+    EXPECT_EQ(back.arrays[a].name, data.arrays[a].name);
+    EXPECT_TRUE(bitEqual(back.arrays[a].values, data.arrays[a].values)) << data.arrays[a].name;
+  }
+  EXPECT_TRUE(bitEqual(*back.velocity, *data.velocity));
+  // A name the reader would take for a built-in column is refused by the writer.
+  data.arrays = {{"vx", Eigen::MatrixXd::Zero(1, 20)}};
+  EXPECT_THROW(writeText(dir_ / "bad.txt", data), ConfigError);
 }
 
 TEST_F(TextFileTest, AngularVelocitiesWithoutVelocitiesRoundTrip) {
@@ -498,6 +523,17 @@ const BadFile kBadFiles[] = {
     {"ColumnsUnknown", "# columns: x y z radius\n0 1 1 1\n", 1, {"columns comment", "expected [id] x y z r"}},
     {"ColumnsOutOfOrder", "# columns: x y z r wx wy wz vx vy vz\n0 1 1 1\n", 1, {"columns comment", "'vx' at word 8"}},
     {"ColumnsPartial", "# columns: x y z r vx vy\n0 1 1 1\n", 1, {"columns comment", "the end at word 7"}},
+    {"ArrayColumnBadName", "# columns: x y z r bad-name\n0 1 1 1\n", 1, {"columns comment", "'bad-name' at word 5"}},
+    {"ArrayColumnBuiltinName", "# columns: x y z r radius\n0 1 1 1\n", 1, {"columns comment", "'radius' at word 5"}},
+    {"ArrayColumnTwice", "# columns: x y z r rattler rattler\n0 1 1 1\n", 1, {"array 'rattler' appears twice"}},
+    {"ArrayValueNotFinite",
+     "# columns: x y z r size_class\n1 1 1 1\n0.5 0.5 0.5 0.1 nan\n",
+     3,
+     {"column 5 (size_class): expected a finite number, got 'nan'"}},
+    {"ArrayValueMissing",
+     "# columns: x y z r force_x force_y force_z\n1 1 1 1\n0.5 0.5 0.5 0.1 1 2\n",
+     3,
+     {"expected 7 columns (as declared on line 1), got 6"}},
     {"ColumnsCountMismatch",
      "# columns: id x y z r\n1 1 1 1\n0.5 0.5 0.5 0.1\n",
      3,

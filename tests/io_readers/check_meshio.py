@@ -113,7 +113,7 @@ check_series("snap_series.xmf", snaps)
 
 # a resumed run's series holds the first run's snapshots too, as the uninterrupted run's series does
 run("relax", "scene.toml", "-q", "--steps", "150", "--set", 'output.snapshot="res_{step}.h5"', "--set",
-    'output.checkpoint="ck.h5"', "--set", "output.final=\"\"")
+    'output.checkpoint="ck.h5"', "--set", "output.final=\"\"", "--set", "output.contacts=true")
 run("relax", "--resume", "ck.h5", "-q", "--steps", "300")
 check_series("res_series.xmf", [f"res_{s:09d}.h5" for s in (0, 100, 200, 300)])
 
@@ -135,6 +135,41 @@ check(m.point_data["max_overlap"].max() > 0 and m.point_data["force"].shape == (
 with meshio.xdmf.TimeSeriesReader("arr_series.xmf") as reader:
     reader.read_points_cells()
     check("contact_count" in reader.read_data(reader.num_steps - 1)[1], "arr_series.xmf: arrays in the series")
+
+# relax output.contacts: every contact file opens as line cells (one per contact, two points each) with
+# the per-contact data as cell arrays; the contact series has one time step per snapshot, each with its
+# own contacts (their number changes from frame to frame).
+def check_contact_sidecar(h5):
+    with h5py.File(h5, "r") as f:
+        fn, points, time = f["/contacts/fn"][()], f["/xdmf/points"][()], float(f.attrs["time"])
+    m = meshio.read(h5[:-3] + ".xmf")
+    check(len(m.cells) == 1 and m.cells[0].type == "line" and len(m.cells[0].data) == len(fn),
+          f"{h5[:-3]}.xmf: {len(m.cells[0].data)} line cells = {len(fn)} contacts")
+    check(m.points.shape == (2 * len(fn), 3) and np.array_equal(m.points, points), f"{h5[:-3]}.xmf: two points per line")
+    check(np.array_equal(m.cell_data["fn"][0], fn), f"{h5[:-3]}.xmf: cell array fn as stored")
+    for a in ("normal_force", "tangential_force", "overlap", "branch", "id_i", "id_j"):
+        check(a in m.cell_data and len(m.cell_data[a][0]) == len(fn), f"{h5[:-3]}.xmf: cell array {a}")
+    return len(fn), time, points
+
+
+def check_contact_series(xmf, files):
+    with meshio.xdmf.TimeSeriesReader(xmf) as reader:
+        reader.read_points_cells()
+        check(reader.num_steps == len(files), f"{xmf}: {reader.num_steps} time steps (expected {len(files)})")
+        for k, h5 in enumerate(files):
+            count, time, points = check_contact_sidecar(h5)
+            t, point_data, cell_data = reader.read_data(k)
+            check(t == time and len(cell_data["fn"][0]) == count and np.array_equal(point_data["position"], points),
+                  f"{xmf}: step {k} at t = {t}: its own {count} contacts and line ends")
+
+
+run("relax", "scene.toml", "-q", "--set", 'output.snapshot="con_{step}.h5"', "--set", "output.final=\"\"", "--set",
+    "output.contacts=true")
+contact_files = [f"con_{s:09d}_contacts.h5" for s in (0, 100, 200, 300)]
+check_contact_series("con_contacts_series.xmf", contact_files)
+counts = [check_contact_sidecar(h5)[0] for h5 in contact_files]
+check(max(counts) > 0 and len(set(counts)) > 1, f"con: contacts per frame {counts} (some, changing)")
+check_contact_series("res_contacts_series.xmf", [f"res_{s:09d}_contacts.h5" for s in (0, 100, 200, 300)])
 
 # jam -o .h5: with velocities
 run("jam", "-n", "150", "--dist", "uv", "--omega", "3", "--seed", "2", "--target-pressure", "1e3", "-o", "j.h5")
