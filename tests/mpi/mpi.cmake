@@ -1,0 +1,92 @@
+# polydem relax on MPI ranks (issue 20, docs/parallel.md), label `mpi`: the final state, time series and final
+# checkpoint of mpirun -np 1..4 (oversubscribed on small machines) are byte-identical to the serial run's, for
+# a frictional scene with walls across gravity and a periodic polydisperse one (size ratio 10); checkpoints
+# resume on another rank count; unsupported features are refused. Each run takes seconds.
+set(POLYDEM_MPI_WORK ${CMAKE_CURRENT_BINARY_DIR}/mpi-work)
+file(MAKE_DIRECTORY ${POLYDEM_MPI_WORK})
+# Frictional, polydisperse (size ratio 4), walls across gravity: tests/determinism/relax_reference.toml with a
+# time series.
+file(READ ${CMAKE_CURRENT_SOURCE_DIR}/determinism/relax_reference.toml _polydem_mpi_walls)
+string(REPLACE "final = \"relax_reference_final.txt\"" "timeseries_interval = 50" _polydem_mpi_walls
+               "${_polydem_mpi_walls}")
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_walls.toml "${_polydem_mpi_walls}")
+# Periodic, frictionless with damping, uniform-volume sizes with size ratio 10: large ghosts.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_periodic.toml "[particles]
+count = 1500
+distribution = \"uniform-volume\"
+rmin = 1e-3
+omega = 10.0
+packing_fraction = 0.4
+density = 2500.0
+seed = 3
+[contact]
+stiffness = 1e4
+restitution = 0.8
+[velocities]
+overlap = 0.02
+[run]
+steps = 1000
+check_interval = 100
+progress_interval = 0.0
+[output]
+timeseries_interval = 50
+")
+# Periodic and frictional (Cundall-Strack springs and rotation across ranks), mono.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_friction.toml "[particles]
+count = 800
+distribution = \"uniform-radius\"
+rmin = 1e-3
+omega = 1.5
+packing_fraction = 0.45
+density = 2500.0
+seed = 11
+[contact]
+stiffness = 1e4
+restitution = 0.5
+friction = 0.5
+tangential_damping_ratio = 0.5
+[velocities]
+overlap = 0.02
+[run]
+steps = 800
+check_interval = 50
+progress_interval = 0.0
+[output]
+timeseries_interval = 100
+")
+
+set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
+foreach(scene walls periodic friction)
+  add_test(NAME mpi_${scene}_serial
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial -q)
+  set_tests_properties(mpi_${scene}_serial PROPERTIES FIXTURES_SETUP mpi_${scene} TIMEOUT 120 LABELS mpi)
+  foreach(np 1 2 3 4)
+    add_test(NAME mpi_${scene}_np${np}
+             COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                     ${POLYDEM_MPI_WORK} mpi_${scene}.toml ${np} -q)
+    set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS mpi)
+  endforeach()
+endforeach()
+# The brick grid instead of the (default) cost-weighted recursive coordinate bisection: the same bytes.
+foreach(scene walls periodic)
+  add_test(NAME mpi_${scene}_np3_brick
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_${scene}.toml 3 -q --decomposition brick)
+  set_tests_properties(mpi_${scene}_np3_brick PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS mpi)
+endforeach()
+# OpenMP threads inside each rank: the same bytes.
+if(POLYDEM_WITH_OPENMP)
+  add_test(NAME mpi_walls_np2_threads2
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_walls.toml 2 -q --threads 2)
+  set_tests_properties(mpi_walls_np2_threads2 PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 120 LABELS mpi)
+endif()
+add_test(NAME mpi_resume_other_ranks
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_resume.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} mpi_walls.toml 1500)
+set_tests_properties(mpi_resume_other_ranks PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 180 LABELS mpi)
+add_test(NAME mpi_refuse_unsupported
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_refuse.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK})
+set_tests_properties(mpi_refuse_unsupported PROPERTIES TIMEOUT 120 LABELS mpi)
