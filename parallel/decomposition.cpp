@@ -125,14 +125,7 @@ double Decomposition::distanceSquared(const double* x, int rank) const {
   for (int k = 0; k < 3; ++k) {
     const double lo = r.lo[k], hi = r.hi[k], L = box_.length(k);
     if (lo <= 0.0 && hi >= L) continue;  // the region spans the axis
-    double d = 0.0;
-    if (x[k] < lo) {
-      d = lo - x[k];
-      if (box_.periodic(k)) d = std::min(d, x[k] + L - hi);
-    } else if (x[k] > hi) {
-      d = x[k] - hi;
-      if (box_.periodic(k)) d = std::min(d, L - x[k] + lo);
-    }
+    const double d = intervalDistance(x[k], lo, hi, L, box_.periodic(k));
     dsq += d * d;
   }
   return dsq;

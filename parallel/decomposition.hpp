@@ -10,6 +10,7 @@
 //   weight comes from a callback, a global sum, so every rank builds the same tree.
 //
 // Nothing here depends on MPI. The decomposition never changes a result (docs/parallel.md): only who computes.
+#include <algorithm>
 #include <array>
 #include <functional>
 #include <string>
@@ -20,6 +21,20 @@
 namespace polydem::parallel {
 
 enum class DecompositionKind { Brick, Bisection };
+
+/// Distance from coordinate x (in [0, L]) to the interval [lo, hi] of an axis of length L, through the periodic
+/// image when `periodic`.
+inline double intervalDistance(double x, double lo, double hi, double L, bool periodic) {
+  if (x < lo) {
+    const double d = lo - x;
+    return periodic ? std::min(d, x + L - hi) : d;
+  }
+  if (x > hi) {
+    const double d = x - hi;
+    return periodic ? std::min(d, L - x + lo) : d;
+  }
+  return 0.0;
+}
 
 /// An axis-aligned part of the box: lo <= x < hi per axis (x <= hi where hi is the box's upper face).
 struct Region {

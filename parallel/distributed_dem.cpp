@@ -215,6 +215,15 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
     owner[static_cast<std::size_t>(s)] = q;
     rmax_[static_cast<std::size_t>(q)] = std::max(rmax_[static_cast<std::size_t>(q)], g.referenceRadius[s]);
   }
+  {
+    std::vector<double> centres, radii;
+    for (Index s = 0; s < n; ++s) {
+      if (owner[static_cast<std::size_t>(s)] != rank_) continue;
+      for (int k = 0; k < 3; ++k) centres.push_back(g.referencePosition(k, s));
+      radii.push_back(g.referenceRadius[s]);
+    }
+    exchangeReach(centres, radii);
+  }
   std::vector<Index> local;
   for (Index s = 0; s < n; ++s) {
     if (owner[static_cast<std::size_t>(s)] == rank_ ||
@@ -262,7 +271,9 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
     if (q == rank_) {
       ownedSlots_.push_back(k);
       for (int t = 0; t < size_; ++t) {
-        if (t != rank_ && needsGhost(&g.referencePosition(0, s), g.referenceRadius[s], t)) {
+        if (t == rank_) continue;
+        stats_.coarseGhosts += coarseGhost(&g.referencePosition(0, s), g.referenceRadius[s], t) ? 1.0 : 0.0;
+        if (needsGhost(&g.referencePosition(0, s), g.referenceRadius[s], t)) {
           sendSlots_[static_cast<std::size_t>(t)].push_back(k);
         }
       }
@@ -300,12 +311,128 @@ void DistributedDem::selectKernel() {
              (p.normalDamped() || flags_.viscous || kernel_.rotation);
 }
 
-bool DistributedDem::needsGhost(const double* x, double r, int q) const {
+bool DistributedDem::coarseGhost(const double* x, double r, int q) const {
   const double rmaxQ = rmax_[static_cast<std::size_t>(q)];
   if (rmaxQ < 0.0) return false;  // q owns nothing
   // A relative margin far above the rounding of the distance: an extra ghost costs a copy, a missing one a pair.
   const double reach = (r + rmaxQ + skin_) * (1.0 + 1e-9);
   return grid_.distanceSquared(x, q) <= reach * reach;
+}
+
+bool DistributedDem::needsGhost(const double* x, double r, int q) const {
+  return coarseGhost(x, r, q) && reachAt(q, x) + r >= -1e-9 * (r + skin_);
+}
+
+namespace {
+constexpr int kReachCells = 32;  // per axis
+}
+
+int DistributedDem::reachCell(const double* x) const {
+  int index = 0;
+  for (int k = 2; k >= 0; --k) {
+    const double u = std::floor(x[k] / box_.length(k) * kReachCells);
+    const int c = std::isfinite(u) ? static_cast<int>(std::clamp(u, 0.0, kReachCells - 1.0)) : 0;
+    index = index * kReachCells + c;
+  }
+  return index;
+}
+
+double DistributedDem::reachAt(int q, const double* x) const {
+  const auto& field = reach_[static_cast<std::size_t>(q)];
+  const int cell = reachCell(x);
+  const auto it = std::lower_bound(field.begin(), field.end(), std::make_pair(static_cast<std::int32_t>(cell), -1e300));
+  if (it == field.end() || it->first != cell) return -std::numeric_limits<double>::infinity();
+  return it->second;
+}
+
+void DistributedDem::exchangeReach(const std::vector<double>& centres, const std::vector<double>& radii) {
+  constexpr int G = kReachCells;
+  double rmaxAll = 0.0;
+  for (const double r : rmax_) rmaxAll = std::max(rmaxAll, r);
+  const Region& mine = grid_.region(rank_);
+  double cellSize[3];
+  for (int k = 0; k < 3; ++k) cellSize[k] = box_.length(k) / G;
+  std::vector<double> field(static_cast<std::size_t>(G) * G * G, -std::numeric_limits<double>::infinity());
+  std::vector<int> index[3];
+  std::vector<double> distance[3];
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    const double* x = centres.data() + 3 * i;
+    const double ball = radii[i] + skin_ + rmaxAll;
+    // A particle whose ball stays inside this rank's region reaches no particle of another rank.
+    double depth = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      const double L = box_.length(k);
+      if (mine.lo[k] > 0.0 || box_.periodic(k)) {
+        if (!(mine.lo[k] <= 0.0 && mine.hi[k] >= L)) depth = std::min(depth, x[k] - mine.lo[k]);
+      }
+      if (mine.hi[k] < L || box_.periodic(k)) {
+        if (!(mine.lo[k] <= 0.0 && mine.hi[k] >= L)) depth = std::min(depth, mine.hi[k] - x[k]);
+      }
+    }
+    if (depth > ball) continue;
+    for (int k = 0; k < 3; ++k) {
+      index[k].clear();
+      distance[k].clear();
+      const long first = static_cast<long>(std::floor((x[k] - ball) / cellSize[k]));
+      const long last = static_cast<long>(std::floor((x[k] + ball) / cellSize[k]));
+      const bool periodic = box_.periodic(k);
+      if (periodic && last - first + 1 >= G) {
+        for (int c = 0; c < G; ++c) index[k].push_back(c);
+      } else {
+        for (long c = first; c <= last; ++c) {
+          if (!periodic && (c < 0 || c >= G)) continue;
+          index[k].push_back(static_cast<int>(((c % G) + G) % G));
+        }
+      }
+      for (const int c : index[k]) {
+        distance[k].push_back(intervalDistance(x[k], c * cellSize[k], (c + 1) * cellSize[k], box_.length(k), periodic));
+      }
+    }
+    for (std::size_t a = 0; a < index[2].size(); ++a) {
+      for (std::size_t b = 0; b < index[1].size(); ++b) {
+        const double dzy = distance[2][a] * distance[2][a] + distance[1][b] * distance[1][b];
+        if (dzy > ball * ball) continue;
+        for (std::size_t c = 0; c < index[0].size(); ++c) {
+          const double dsq = dzy + distance[0][c] * distance[0][c];
+          if (dsq > ball * ball) continue;
+          // Rounded down (a lower bound of the distance): the field is never below the exact value.
+          const double value = radii[i] + skin_ - std::sqrt(dsq) * (1.0 - 1e-12);
+          double& f = field[static_cast<std::size_t>((index[2][a] * G + index[1][b]) * G + index[0][c])];
+          f = std::max(f, value);
+        }
+      }
+    }
+  }
+  std::vector<double> sparse;
+  for (std::size_t c = 0; c < field.size(); ++c) {
+    if (field[c] == -std::numeric_limits<double>::infinity()) continue;
+    sparse.push_back(static_cast<double>(c));
+    sparse.push_back(field[c]);
+  }
+  const int count = toInt(sparse.size(), "reach field");
+  std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
+  std::vector<double> all;
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+    std::size_t total = 0;
+    for (int q = 0; q < size_; ++q) {
+      displs[static_cast<std::size_t>(q)] = toInt(total, "reach field");
+      total += static_cast<std::size_t>(counts[static_cast<std::size_t>(q)]);
+    }
+    all.resize(total);
+    mpiCheck(MPI_Allgatherv(sparse.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
+                            MPI_COMM_WORLD),
+             "MPI_Allgatherv");
+  }
+  reach_.assign(static_cast<std::size_t>(size_), {});
+  for (int q = 0; q < size_; ++q) {
+    const std::size_t begin = static_cast<std::size_t>(displs[static_cast<std::size_t>(q)]);
+    const std::size_t end = begin + static_cast<std::size_t>(counts[static_cast<std::size_t>(q)]);
+    for (std::size_t e = begin; e < end; e += 2) {
+      reach_[static_cast<std::size_t>(q)].emplace_back(static_cast<std::int32_t>(all[e]), all[e + 1]);
+    }
+  }
 }
 
 void DistributedDem::setupGhostBuffers() {
@@ -627,13 +754,28 @@ void DistributedDem::rebuild() {
     mpiCheck(MPI_Allgather(&rmaxMine, 1, MPI_DOUBLE, rmax_.data(), 1, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
   }
 
+  {
+    std::vector<double> centres, radii;
+    centres.reserve(3 * owned);
+    radii.reserve(owned);
+    for (std::size_t o = 0; o < owned; ++o) {
+      centres.insert(centres.end(), records.begin() + static_cast<std::ptrdiff_t>(o * W + kX),
+                     records.begin() + static_cast<std::ptrdiff_t>(o * W + kX + 3));
+      radii.push_back(records[o * W + static_cast<std::size_t>(rOff)]);
+    }
+    exchangeReach(centres, radii);
+  }
+
   // 4. Ghosts: every owned particle that can come within the skin of some particle of rank q.
   std::vector<std::vector<double>> ghostOut(P);
   std::vector<std::vector<std::size_t>> sendIndex(P);  // position in `order` of each particle sent to q
+  stats_.coarseGhosts = 0.0;
   for (std::size_t o = 0; o < owned; ++o) {
     const double* rec = records.data() + order[o] * W;
     for (int q = 0; q < size_; ++q) {
-      if (q == rank_ || !needsGhost(rec + kX, rec[rOff], q)) continue;
+      if (q == rank_) continue;
+      stats_.coarseGhosts += coarseGhost(rec + kX, rec[rOff], q) ? 1.0 : 0.0;
+      if (!needsGhost(rec + kX, rec[rOff], q)) continue;
       ghostOut[static_cast<std::size_t>(q)].insert(ghostOut[static_cast<std::size_t>(q)].end(), rec, rec + W);
       sendIndex[static_cast<std::size_t>(q)].push_back(o);
     }
@@ -1021,15 +1163,16 @@ ParallelStats DistributedDem::stats() {
   ParallelStats out;
   out.decomposition = grid_.describe();
   out.rebalances = rebalances_;
-  constexpr int kFields = 8;
-  const double mine[kFields] = {stats_.owned,    stats_.ghosts, stats_.pairs,       stats_.ghostBytesPerStep,
-                                stats_.migrated, stats_.cost,   stats_.commSeconds, stats_.loopSeconds};
+  constexpr int kFields = 9;
+  const double mine[kFields] = {stats_.owned,      stats_.ghosts, stats_.pairs,        stats_.ghostBytesPerStep,
+                                stats_.migrated,   stats_.cost,   stats_.coarseGhosts, stats_.commSeconds,
+                                stats_.loopSeconds};
   std::vector<double> all(static_cast<std::size_t>(kFields * size_));
   mpiCheck(MPI_Gather(mine, kFields, MPI_DOUBLE, all.data(), kFields, MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Gather");
   if (rank_ != 0) return out;
   for (int q = 0; q < size_; ++q) {
     const double* a = all.data() + kFields * q;
-    out.ranks.push_back(RankStats{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]});
+    out.ranks.push_back(RankStats{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]});
   }
   return out;
 }

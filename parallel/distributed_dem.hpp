@@ -15,11 +15,16 @@
 // is its tangential spring. The half kicks are element-wise, the rebuild decision is an exact maximum over
 // ranks (MPI_MAX), and contact histories are keyed by id pairs.
 //
-// Ghosts are sized by particle: j (owned by another rank) is a ghost of rank q when its distance to q's
-// brick is at most r_j + r_max(q) + skin, r_max(q) the largest radius owned by q; that is every j that can be
-// within the skin of one of q's particles. At each neighbour-list build (the same steps as the serial run:
-// max displacement > skin/2) particles are wrapped, migrate to the rank whose brick holds them, carrying
-// velocity, rotation and the contact springs of their pairs and walls, and ghosts are chosen again.
+// Ghosts are sized by particle: j (owned by another rank) is a ghost of rank q only if some particle i of q
+// can be within the skin of it, |x_i - x_j| <= r_i + r_j + skin. Two necessary conditions are tested, both
+// exact bounds: (1) the distance from x_j to q's region is at most r_j + r_max(q) + skin, r_max(q) the largest
+// radius owned by q; (2) the reach field of q at x_j's cell is at least -r_j, where the field, on a 32^3 grid of
+// the box, is R(c) = max over q's particles i of (r_i + skin - dist(x_i, cell c)) (a lower bound of
+// |x_i - x_j| for every x_j in c). (2) is what keeps a small particle off a rank whose large particles are
+// nowhere near it; (1) alone would copy a shell of the largest radius's thickness around every region. At each
+// neighbour-list build (the same steps as the serial run: max displacement > skin/2) particles are wrapped, migrate to
+// the rank whose brick holds them, carrying velocity, rotation and the contact springs of their pairs and walls, and
+// ghosts are chosen again.
 //
 // The start and every output go through the serial state (integrators::DemState in slot order): every rank
 // constructs from the same global state (so a serial checkpoint resumes on any rank count), and gather()
@@ -57,6 +62,7 @@ struct RankStats {
   double ghostBytesPerStep = 0.0;  ///< bytes sent per step for ghost updates
   double migrated = 0.0;           ///< particles sent away at rebuilds, in total
   double cost = 0.0;               ///< owned particles + their candidate pairs (the bisection's weight)
+  double coarseGhosts = 0.0;       ///< ghosts the distance rule (1) alone would send, at the last build
   double commSeconds = 0.0;        ///< in MPI calls (exchanges, reductions, gathers)
   double loopSeconds = 0.0;        ///< in advance(), all of it
 };
@@ -95,7 +101,14 @@ class DistributedDem {
   void selectKernel();
   void buildList(const Eigen::Matrix3Xd& centres, const Eigen::VectorXd& radii);
   void remapHistories(std::vector<double>& pool, std::vector<double>& wallPool);
+  /// The distance rule (1) for particle (x, r) and rank q.
+  bool coarseGhost(const double* x, double r, int q) const;
+  /// Rules (1) and (2).
   bool needsGhost(const double* x, double r, int q) const;
+  /// Collective: every rank's reach field from its owned particles (`centres` 3 x m, `radii` m).
+  void exchangeReach(const std::vector<double>& centres, const std::vector<double>& radii);
+  double reachAt(int q, const double* x) const;
+  int reachCell(const double* x) const;
   double openingKickAndDrift();
   void closingKick();
   void exchangeGhosts();
@@ -127,6 +140,7 @@ class DistributedDem {
   double rebalanceThreshold_ = 0.1;
   std::int64_t rebalances_ = 0;
   std::vector<double> rmax_;  ///< largest owned radius per rank (-1: owns nothing)
+  std::vector<std::vector<std::pair<std::int32_t, double>>> reach_;  ///< per rank: (cell, R) by cell
 
   // local particles, owned and ghosts, ascending key (= serial slot)
   Index n_ = 0;

@@ -87,9 +87,16 @@ class MpiDriver final : public StepDriver {
                end_.rebalances);
     fmt::print("owned per rank        min {:.0f}, mean {:.1f}, max {:.0f}: imbalance max / mean {:.3f}\n", owned.min,
                owned.mean, owned.max, owned.max / std::max(owned.mean, 1.0));
-    fmt::print("cost per rank         particles + candidate pairs at the last build: max / mean {:.3f}\n",
-               cost.max / std::max(cost.mean, 1.0));
+    if (cost.mean > 0.0) {
+      fmt::print("cost per rank         particles + candidate pairs at the last build: max / mean {:.3f}\n",
+                 cost.max / cost.mean);
+    }
+    const Spread coarse = spread(ranks, [](const parallel::RankStats& r) { return r.coarseGhosts; });
     fmt::print("ghosts per rank       {}\n", ghostsText(end_));
+    fmt::print(
+        "ghost rule            the reach field keeps {:.1f} of the {:.1f} ghosts per rank (mean) that the "
+        "distance to the region (r_j + r_max + skin) alone would copy\n",
+        ghosts.mean, coarse.mean);
     fmt::print("ghost updates         {:.0f} bytes per step per rank (mean; max {:.0f})\n", bytes.mean, bytes.max);
     fmt::print("migrations            {:.0f} particles moved between ranks at neighbour-list builds\n", migrated);
     fmt::print(
@@ -107,6 +114,7 @@ class MpiDriver final : public StepDriver {
     sum.put("parallel.owned_mean", owned.mean);
     sum.put("parallel.ghosts_max", ghosts.max);
     sum.put("parallel.ghosts_mean", ghosts.mean);
+    sum.put("parallel.ghosts_distance_rule_mean", coarse.mean);
     sum.put("parallel.ghost_bytes_per_step_max", bytes.max);
     sum.put("parallel.migrated", migrated);
     sum.put("parallel.comm_seconds_max", comm.max);
