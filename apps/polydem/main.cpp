@@ -13,6 +13,7 @@
 #include "core/errors.hpp"
 #include "core/io/safe_output.hpp"
 #include "polydem/config.hpp"
+#include "polydem/mpi_config.hpp"
 #if POLYDEM_WITH_MPI
 #include "parallel/mpi_session.hpp"
 #endif

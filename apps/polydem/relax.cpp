@@ -35,7 +35,7 @@
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/checkpoint.hpp"
-#include "polydem/config.hpp"
+#include "polydem/mpi_config.hpp"
 
 namespace polydem::app {
 

@@ -18,7 +18,7 @@
 #include "core/io/particle_file.hpp"
 #include "integrators/dem_simulation.hpp"
 #include "integrators/soft_compression.hpp"
-#include "polydem/config.hpp"
+#include "polydem/mpi_config.hpp"
 
 namespace polydem::app {
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # mpi_compare.sh POLYDEM MPIEXEC WORK SCENE NP [relax options...]: runs the relax scene WORK/SCENE in its own
 # folder WORK/<scene>/<np> with `mpirun -np NP` (NP = serial: without mpirun, the reference) and checks that the
-# final state, the time series and the final checkpoint are byte-identical to the serial run's
+# final state, the time series, the snapshots and the final checkpoint are byte-identical to the serial run's
 # (docs/parallel.md). With NP > 1 the report must show the parallel run, and particles must have migrated.
 set -u
 polydem="$1"; mpiexec="$2"; work="$3"; scene="$4"; np="$5"; shift 5
@@ -17,7 +17,8 @@ dir="$work/$name/$np$tag"
 rm -rf "$dir"; mkdir -p "$dir"; cd "$dir" || exit 1
 cp "$work/$scene" scene.toml
 fail() { echo "FAIL: $*"; exit 1; }
-outs=(--set output.final=\"final.txt\" --set output.timeseries=\"series.csv\" --set output.checkpoint=\"ck.h5\")
+outs=(--set output.final=\"final.txt\" --set output.timeseries=\"series.csv\" --set output.checkpoint=\"ck.h5\"
+  --set output.snapshot=\"snap_{step}.txt\" --set output.snapshot_interval=400)
 if [ "$np" = serial ]; then
   echo "+ polydem relax scene.toml $* (serial reference)"
   "$polydem" relax scene.toml "${outs[@]}" "$@" > run.log 2>&1 || { cat run.log; fail "serial run"; }
@@ -38,7 +39,9 @@ fi
 files=(final.txt series.csv ck.h5)
 # A checkpoint records the scene overrides, --threads among them (run.threads = 2): compare the state files only.
 case " $* " in *" --threads "*) files=(final.txt series.csv) ;; esac
+for f in "$ref"/snap_*.txt; do files+=("$(basename "$f")"); done
+[ "${#files[@]}" -gt 4 ] || fail "the reference wrote no snapshots"
 for f in "${files[@]}"; do
   cmp "$ref/$f" "$f" || fail "$f differs from the serial run's"
 done
-echo "np $np: final state, time series and checkpoint byte-identical to the serial run"
+echo "np $np: ${files[*]} byte-identical to the serial run's"
