@@ -37,7 +37,7 @@ count = 800
 distribution = \"uniform-radius\"
 rmin = 1e-3
 omega = 1.5
-packing_fraction = 0.45
+packing_fraction = 0.38
 density = 2500.0
 seed = 11
 [contact]
