@@ -5,10 +5,11 @@
 set(POLYDEM_MPI_WORK ${CMAKE_CURRENT_BINARY_DIR}/mpi-work)
 file(MAKE_DIRECTORY ${POLYDEM_MPI_WORK})
 # Frictional, polydisperse (size ratio 4), walls across gravity: tests/determinism/relax_reference.toml with a
-# time series.
+# time series, 600 steps.
 file(READ ${CMAKE_CURRENT_SOURCE_DIR}/determinism/relax_reference.toml _polydem_mpi_walls)
 string(REPLACE "final = \"relax_reference_final.txt\"" "timeseries_interval = 50" _polydem_mpi_walls
                "${_polydem_mpi_walls}")
+string(REPLACE "steps = 1500" "steps = 600" _polydem_mpi_walls "${_polydem_mpi_walls}")  # seconds per test
 file(WRITE ${POLYDEM_MPI_WORK}/mpi_walls.toml "${_polydem_mpi_walls}")
 # Periodic, frictionless with damping, uniform-volume sizes with size ratio 10: large ghosts.
 file(WRITE ${POLYDEM_MPI_WORK}/mpi_periodic.toml "[particles]
@@ -25,7 +26,7 @@ restitution = 0.8
 [velocities]
 overlap = 0.02
 [run]
-steps = 1000
+steps = 500
 check_interval = 100
 progress_interval = 0.0
 [output]
@@ -48,7 +49,7 @@ tangential_damping_ratio = 0.5
 [velocities]
 overlap = 0.02
 [run]
-steps = 800
+steps = 400
 check_interval = 50
 progress_interval = 0.0
 [output]
@@ -56,6 +57,9 @@ timeseries_interval = 100
 ")
 
 set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
+# On 2 busy cores a run of 2-4 ranks takes 10-25 s (every wait for a message gives the core away): one rank
+# count per scene runs in the checked passes, the others are labelled slow too.
+set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4)
 foreach(scene walls periodic friction)
   add_test(NAME mpi_${scene}_serial
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
@@ -65,7 +69,11 @@ foreach(scene walls periodic friction)
     add_test(NAME mpi_${scene}_np${np}
              COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                      ${POLYDEM_MPI_WORK} mpi_${scene}.toml ${np} -q)
-    set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS mpi)
+    set(_labels mpi)
+    if(NOT mpi_${scene}_np${np} IN_LIST _polydem_mpi_quick)
+      set(_labels "mpi;slow")
+    endif()
+    set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS "${_labels}")
   endforeach()
 endforeach()
 # The brick grid instead of the (default) cost-weighted recursive coordinate bisection: the same bytes.
@@ -73,18 +81,18 @@ foreach(scene walls periodic)
   add_test(NAME mpi_${scene}_np3_brick
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                    ${POLYDEM_MPI_WORK} mpi_${scene}.toml 3 -q --decomposition brick)
-  set_tests_properties(mpi_${scene}_np3_brick PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS mpi)
+  set_tests_properties(mpi_${scene}_np3_brick PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS "mpi;slow")
 endforeach()
 # OpenMP threads inside each rank: the same bytes.
 if(POLYDEM_WITH_OPENMP)
   add_test(NAME mpi_walls_np2_threads2
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                    ${POLYDEM_MPI_WORK} mpi_walls.toml 2 -q --threads 2)
-  set_tests_properties(mpi_walls_np2_threads2 PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 120 LABELS mpi)
+  set_tests_properties(mpi_walls_np2_threads2 PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 120 LABELS "mpi;slow")
 endif()
 add_test(NAME mpi_resume_other_ranks
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_resume.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
-                 ${POLYDEM_MPI_WORK} mpi_walls.toml 1500)
+                 ${POLYDEM_MPI_WORK} mpi_walls.toml 600)
 set_tests_properties(mpi_resume_other_ranks PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 180 LABELS mpi)
 add_test(NAME mpi_refuse_unsupported
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_refuse.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
