@@ -98,3 +98,8 @@ add_test(NAME mpi_refuse_unsupported
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_refuse.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                  ${POLYDEM_MPI_WORK})
 set_tests_properties(mpi_refuse_unsupported PROPERTIES TIMEOUT 120 LABELS mpi)
+# The determinism reference scene (tests/determinism) on 3 ranks: its checked-in SHA-256.
+add_test(NAME mpi_determinism_reference_np3
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_reference.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} 3)
+set_tests_properties(mpi_determinism_reference_np3 PROPERTIES TIMEOUT 180 LABELS "mpi;slow")
