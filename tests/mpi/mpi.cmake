@@ -56,11 +56,18 @@ progress_interval = 0.0
 timeseries_interval = 100
 ")
 
+# Hertz with Hertz-Mindlin friction, viscous damping, half-step dashpot velocity, walls across gravity.
+string(REPLACE "stiffness = 1e4" "law = \"hertz\"\nstiffness = 1e8\ntangential = \"hertz-mindlin\"\npoisson_ratio = 0.3"
+               _polydem_mpi_hertz "${_polydem_mpi_walls}")
+string(REPLACE "check_interval = 100" "check_interval = 100\nviscous_damping = 20.0\ndashpot_velocity = \"half-step\""
+               _polydem_mpi_hertz "${_polydem_mpi_hertz}")
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_hertz.toml "${_polydem_mpi_hertz}")
+
 set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
 # On 2 busy cores a run of 2-4 ranks takes 10-25 s (every wait for a message gives the core away): one rank
 # count per scene runs in the checked passes, the others are labelled slow too.
-set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4)
-foreach(scene walls periodic friction)
+set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3)
+foreach(scene walls periodic friction hertz)
   add_test(NAME mpi_${scene}_serial
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                    ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial -q)
