@@ -13,6 +13,7 @@ packages=(
   python3-meshio python3-h5py  # tests/io_readers (check tools: the tests skip without them)
   clang libfuzzer-14-dev clang-format
   python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib
+  libopenmpi-dev openmpi-bin  # MPI domain decomposition of relax (parallel/, docs/parallel.md)
 )
 
 missing=()

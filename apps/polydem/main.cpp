@@ -13,8 +13,19 @@
 #include "core/errors.hpp"
 #include "core/io/safe_output.hpp"
 #include "polydem/config.hpp"
+#include "polydem/mpi_config.hpp"
+#if POLYDEM_WITH_MPI
+#include "parallel/mpi_session.hpp"
+#endif
 
 int main(int argc, char** argv) {
+#if POLYDEM_WITH_MPI
+  // MPI_Init only under mpirun; ranks > 0 print nothing (docs/parallel.md).
+  polydem::parallel::Session mpi(argc, argv);
+  const bool root = polydem::parallel::isRoot();
+#else
+  const bool root = true;
+#endif
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // progress lines appear promptly when redirected
   CLI::App app{"polydem " POLYDEM_VERSION ": simulation and packing of polydisperse spheres"};
   app.require_subcommand(1);
@@ -62,7 +73,10 @@ int main(int argc, char** argv) {
   int code = polydem::app::kExitOk;
   std::string message;
   try {
-    if (!summaryPath.empty()) {
+#if POLYDEM_WITH_MPI
+    polydem::parallel::requireParallelSupport(sub->get_name());
+#endif
+    if (!summaryPath.empty() && root) {
       // Checked before the run (issue 15): not a directory, writable, not one of the inputs (the
       // subcommand's positional arguments and --input).
       std::vector<std::filesystem::path> inputs;
@@ -89,7 +103,7 @@ int main(int argc, char** argv) {
     message = fmt::format("error: {}", e.what());
     code = polydem::app::kExitError;
   }
-  if (!message.empty()) fmt::print(stderr, "polydem: {}\n", message);
+  if (!message.empty() && root) fmt::print(stderr, "polydem: {}\n", message);
   if (polydem::app::summary().enabled()) {
     polydem::app::recordExit(code, message);
     try {
@@ -99,5 +113,8 @@ int main(int argc, char** argv) {
       if (code == polydem::app::kExitOk) code = polydem::app::kExitError;
     }
   }
+#if POLYDEM_WITH_MPI
+  code = mpi.finish(code);
+#endif
   return code;
 }

@@ -35,6 +35,7 @@
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "core/io/checkpoint.hpp"
+#include "polydem/mpi_config.hpp"
 
 namespace polydem::app {
 
@@ -54,6 +55,7 @@ struct RelaxOptions {
   std::optional<int> threads;
   std::string sweep;
   bool quiet = false;
+  std::string decomposition;  ///< MPI runs only (docs/parallel.md); empty = rcb
 };
 
 std::string readText(const std::filesystem::path& file) {
@@ -151,7 +153,8 @@ int writeShortOfTarget(const RelaxScene& scene, Start& start, RunContext& contex
 /// Compute (and write, report) a run from its start: the soft compression if any, the velocities,
 /// the time loop. `compression` is set when a checkpoint of the compression is being resumed.
 int runFromStart(const RelaxScene& scene, Start start, RunContext& context,
-                 std::optional<integrators::SoftCompression> compression, bool quiet) {
+                 std::optional<integrators::SoftCompression> compression, bool quiet,
+                 [[maybe_unused]] const std::string& decomposition = "rcb") {
   if (compression) compressStart(scene, *compression, start, context, quiet, true);
   if (start.targetNotReached) return writeShortOfTarget(scene, start, context, *compression, quiet);
   setVelocities(scene, start);
@@ -161,6 +164,12 @@ int runFromStart(const RelaxScene& scene, Start start, RunContext& context,
   integrators::DemSimulation sim(std::move(start.particles), start.box, settings);
   // Continuing a run from its snapshot (velocities from the file): the clock continues too.
   if (scene.initialVelocities == "file") sim.setTimeOrigin(start.fileTime);
+#if POLYDEM_WITH_MPI
+  if (severalRanks()) {  // docs/parallel.md
+    const std::unique_ptr<StepDriver> driver = makeStepDriver(sim, decomposition);
+    return exitCode(runScene(running, std::move(sim), context, RunMode{.quiet = quiet, .driver = driver.get()}));
+  }
+#endif
   return exitCode(runScene(running, std::move(sim), context, RunMode{.quiet = quiet}));
 }
 
@@ -176,6 +185,15 @@ int resume(const RelaxOptions& opt, LoadedRun& run) {
                       "step 0, give a larger total with --steps",
                       scene.steps, state.step));
     }
+#if POLYDEM_WITH_MPI
+    if (severalRanks()) {  // a checkpoint of any rank count resumes on any other (docs/parallel.md)
+      integrators::DemSimulation sim = integrators::DemSimulation::restore(state, runSettings(scene));
+      const std::unique_ptr<StepDriver> driver =
+          makeStepDriver(sim, opt.decomposition.empty() ? "rcb" : opt.decomposition);
+      return exitCode(runScene(scene, std::move(sim), run.context,
+                               RunMode{.quiet = opt.quiet, .resumed = true, .driver = driver.get()}));
+    }
+#endif
     return exitCode(runScene(scene, integrators::DemSimulation::restore(state, runSettings(scene)), run.context,
                              RunMode{.quiet = opt.quiet, .resumed = true}));
   }
@@ -204,7 +222,8 @@ int runNew(const RelaxOptions& opt, LoadedRun& run) {
   }
   std::optional<integrators::SoftCompression> compression;
   if (scene.compression) compression.emplace(std::move(start.particles), start.box, scene.dem, *scene.compression);
-  return runFromStart(scene, std::move(start), run.context, std::move(compression), opt.quiet);
+  return runFromStart(scene, std::move(start), run.context, std::move(compression), opt.quiet,
+                      opt.decomposition.empty() ? "rcb" : opt.decomposition);
 }
 
 /// `polydem relax`: load the scene (or the checkpoint), check every output, then compute, write and
@@ -215,6 +234,13 @@ int run(const RelaxOptions& opt) {
     return static_cast<int>(kExitOk);
   }
   LoadedRun loaded = load(opt);
+  if (!opt.decomposition.empty() && !severalRanks()) {
+    throw ConfigError(fmt::format("--decomposition {} applies to runs on several MPI ranks (mpirun -np N, N > 1)",
+                                  opt.decomposition));
+  }
+#if POLYDEM_WITH_MPI
+  if (severalRanks()) requireParallelSupport(loaded.scene, !opt.sweep.empty());
+#endif
   fmt::print("polydem relax {}\n", opt.resume.empty() ? opt.scene : "--resume " + opt.resume);
   if (summary().enabled()) {
     // The settings of a scene run are the scene itself: its file verbatim (the --set overrides are in
@@ -257,6 +283,9 @@ Runner addRelax(CLI::App& app) {
       ->check(finiteIn(1, 1024));
   cmd->add_option("--sweep", opt->sweep, "dt-factor=10,20,50,100,200 or skin=...: error against wall time");
   cmd->add_flag("-q,--quiet", opt->quiet, "no progress lines");
+  cmd->add_option("--decomposition", opt->decomposition,
+                  "under mpirun: rcb (recursive coordinate bisection by cost, rebalanced; default) or brick (grid)")
+      ->check(CLI::IsMember({"rcb", "brick"}));
   return [opt]() { return run(*opt); };
 }
 

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -18,6 +19,7 @@
 #include "core/io/particle_file.hpp"
 #include "integrators/dem_simulation.hpp"
 #include "integrators/soft_compression.hpp"
+#include "polydem/mpi_config.hpp"
 
 namespace polydem::app {
 
@@ -83,12 +85,47 @@ struct RunSummary {
   bool interrupted = false;
 };
 
+/// The time loop's steps on several MPI ranks (relax_mpi.cpp, POLYDEM_WITH_MPI builds; docs/parallel.md).
+/// runScene() on rank 0 asks it to advance and to bring `sim` up to the distributed state before reading it
+/// (outputs, checks, the report); the other ranks serve() rank 0's requests. Null in RunMode: the steps run
+/// in `sim` itself.
+class StepDriver {
+ public:
+  virtual ~StepDriver() = default;
+  virtual bool root() const = 0;
+  /// Advance `steps` steps (fewer when some rank saw SIGINT/SIGTERM); returns the step reached.
+  virtual std::int64_t advance(std::int64_t steps) = 0;
+  virtual bool interrupted() const = 0;
+  /// `sim` := the distributed run's state, gathered to rank 0.
+  virtual void sync(integrators::DemSimulation& sim) = 0;
+  /// The loop is over: the other ranks return from serve().
+  virtual void finish() = 0;
+  /// Lines after the start lines and after the closing report (rank 0).
+  virtual void printStart() const = 0;
+  virtual void printReport() const = 0;
+  /// Ranks > 0: do rank 0's requests until finish().
+  virtual RunSummary serve() = 0;
+};
+
+#if POLYDEM_WITH_MPI
+/// Launched by mpirun with more than one rank.
+bool severalRanks();
+/// Collective: distribute `sim`'s state over the ranks (parallel::DistributedDem); `decomposition` is rcb
+/// (recursive coordinate bisection by cost, rebalanced) or brick.
+std::unique_ptr<StepDriver> makeStepDriver(const integrators::DemSimulation& sim, const std::string& decomposition);
+/// The relax features a parallel run does not have yet are refused (ConfigError naming the key).
+void requireParallelSupport(const RelaxScene& scene, bool sweep);
+#else
+inline bool severalRanks() { return false; }
+#endif
+
 /// How runScene() runs and what it prints.
 struct RunMode {
   bool quiet = false;    ///< no progress lines
   bool brief = false;    ///< no start lines and no closing report (sweep rows)
   bool resumed = false;  ///< continues a checkpoint: no step-0 outputs, the time series is appended to
   std::optional<std::string> targetNotReached = {};  ///< the soft compression's reason: outputs are marked
+  StepDriver* driver = nullptr;                      ///< several MPI ranks run the steps (see StepDriver)
 };
 
 /// Particle data in id order, for snapshots and the final state: positions (wrapped), velocities, angular

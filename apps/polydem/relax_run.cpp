@@ -443,46 +443,58 @@ class LoopOutputs {
   std::vector<io::XdmfContactFrame> contactFrames_;  ///< the contact files of the contact series
 };
 
-void printProgress(const integrators::DemSimulation& sim, std::int64_t total, std::int64_t firstStep,
+void printProgress(const integrators::DemSimulation& sim, std::int64_t step, std::int64_t total, std::int64_t firstStep,
                    double loopSeconds) {
   const double n = static_cast<double>(sim.particles().count());
-  const double done = static_cast<double>(sim.step() - firstStep);
+  const double done = static_cast<double>(step - firstStep);
   const double rate = done / std::max(loopSeconds, 1e-9);
-  fmt::print(stderr, "  step {:>10} / {} ({:4.1f}%)  {:.0f} steps/s  {:.3f} us/particle/step  ETA {:.0f} s\n",
-             sim.step(), total, 100.0 * static_cast<double>(sim.step()) / static_cast<double>(total), rate,
-             1e6 * loopSeconds / (std::max(done, 1.0) * n), static_cast<double>(total - sim.step()) / rate);
+  fmt::print(stderr, "  step {:>10} / {} ({:4.1f}%)  {:.0f} steps/s  {:.3f} us/particle/step  ETA {:.0f} s\n", step,
+             total, 100.0 * static_cast<double>(step) / static_cast<double>(total), rate,
+             1e6 * loopSeconds / (std::max(done, 1.0) * n), static_cast<double>(total - step) / rate);
 }
 
 /// Advance to scene.steps in chunks that end on every output interval, writing the outputs due at each
-/// chunk's end; stops early at an interrupt (after a complete step).
+/// chunk's end; stops early at an interrupt (after a complete step). With a driver (several MPI ranks) the
+/// steps run there and `sim` is brought up to date only when something reads it.
 LoopTiming timeLoop(const RelaxScene& scene, integrators::DemSimulation& sim, TimeSeries& series, LoopOutputs& out,
-                    bool quiet) {
+                    bool quiet, StepDriver* driver) {
   LoopTiming timing;
   double lastProgress = 0.0;
   const std::int64_t total = scene.steps;
   const std::int64_t firstStep = sim.step();
+  std::int64_t step = firstStep;
   bool interrupted = interruptRequested();
-  auto boundary = [&](std::int64_t interval) { return (sim.step() / interval + 1) * interval; };
-  while (sim.step() < total && !interrupted) {
-    std::int64_t next = std::min(total, sim.step() + 200);
+  auto boundary = [&](std::int64_t interval) { return (step / interval + 1) * interval; };
+  while (step < total && !interrupted) {
+    std::int64_t next = std::min(total, step + 200);
     if (series.enabled()) next = std::min(next, boundary(scene.timeseriesInterval));
     if (out.snapshots()) next = std::min(next, boundary(scene.snapshotInterval));
     if (out.checkpoints() && scene.checkpointInterval > 0) next = std::min(next, boundary(scene.checkpointInterval));
     const double before = out.seconds();
-    sim.advance(next - sim.step(), true);
+    if (driver) {
+      step = driver->advance(next - step);
+      interrupted = driver->interrupted();
+    } else {
+      sim.advance(next - step, true);
+      step = sim.step();
+      interrupted = interruptRequested();
+    }
     timing.loopSeconds += out.seconds() - before;
-    interrupted = interruptRequested();
-    if (series.enabled() && sim.step() % scene.timeseriesInterval == 0) series.write(sim);
+    const bool seriesDue = series.enabled() && step % scene.timeseriesInterval == 0;
+    const bool snapshotDue = !interrupted && out.snapshots() && step % scene.snapshotInterval == 0;
+    const bool checkpointDue = !interrupted && out.checkpoints() && step < total && out.checkpointDue(step);
+    if (driver && (seriesDue || snapshotDue || checkpointDue || interrupted || step >= total)) driver->sync(sim);
+    if (seriesDue) series.write(sim);
     if (interrupted) break;
-    if (out.snapshots() && sim.step() % scene.snapshotInterval == 0) out.writeSnapshot(sim);
-    if (out.checkpoints() && sim.step() < total && out.checkpointDue(sim.step())) out.writeCheckpoint(sim);
+    if (snapshotDue) out.writeSnapshot(sim);
+    if (checkpointDue) out.writeCheckpoint(sim);
     const double now = out.seconds();
-    if (!quiet && scene.progressInterval > 0.0 && now - lastProgress >= scene.progressInterval && sim.step() < total) {
+    if (!quiet && scene.progressInterval > 0.0 && now - lastProgress >= scene.progressInterval && step < total) {
       lastProgress = now;
-      printProgress(sim, total, firstStep, timing.loopSeconds);
+      printProgress(sim, step, total, firstStep, timing.loopSeconds);
     }
   }
-  timing.stepsRun = sim.step() - firstStep;
+  timing.stepsRun = step - firstStep;
   timing.totalSteps = total;
   timing.interrupted = interrupted;
   return timing;
@@ -525,7 +537,10 @@ void checkOutputs(const RelaxScene& scene, const std::vector<std::filesystem::pa
 
 RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, const RunContext& run,
                     const RunMode& mode) {
+  StepDriver* driver = mode.driver;
+  if (driver && !driver->root()) return driver->serve();
   if (!mode.brief) printStart(scene, sim, run, mode.resumed);
+  if (driver && !mode.brief) driver->printStart();
   std::map<std::string, std::string> attributes = run.attributes;
   if (mode.targetNotReached) attributes["target_not_reached"] = *mode.targetNotReached;
 
@@ -536,7 +551,8 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
     if (series.enabled()) series.write(sim);
     if (out.snapshots()) out.writeSnapshot(sim);
   }
-  const LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet);
+  const LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet, driver);
+  if (driver) driver->finish();
   series.flush();
   // The checks run once at the end whatever run.check_interval says (0 included): no state is written
   // as a result without having passed them.
@@ -555,6 +571,7 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
   summary.positions.resize(3, p.count());
   for (Index k = 0; k < p.count(); ++k) summary.positions.col(k) = p.position().col(order[static_cast<std::size_t>(k)]);
   if (!mode.brief) printReport(scene, sim, run, timing, mode.targetNotReached);
+  if (driver && !mode.brief) driver->printReport();
   return summary;
 }
 

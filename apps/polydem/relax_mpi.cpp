@@ -1,0 +1,210 @@
+// polydem relax on several MPI ranks (docs/parallel.md): the StepDriver that runs the time loop's steps in a
+// parallel::DistributedDem. Rank 0 runs runScene() as in a serial run (every output, check message and
+// report comes from its DemSimulation, brought up to the distributed state by a gather before it is read);
+// the other ranks serve rank 0's commands (advance n steps, gather, stop) until the loop ends. Only rank 0
+// decides (output intervals, wall-clock checkpoints), so the ranks cannot disagree about what happens when.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "apps/polydem/relax.hpp"
+#include "apps/polydem/summary.hpp"
+#include "core/errors.hpp"
+#include "parallel/distributed_dem.hpp"
+#include "parallel/mpi_session.hpp"
+
+namespace polydem::app {
+
+namespace {
+
+struct Spread {
+  double min = 0.0, mean = 0.0, max = 0.0;
+};
+
+template <class Field>
+Spread spread(const std::vector<parallel::RankStats>& ranks, Field field) {
+  Spread s{field(ranks.front()), 0.0, field(ranks.front())};
+  for (const parallel::RankStats& r : ranks) {
+    const double v = field(r);
+    s.min = std::min(s.min, v);
+    s.max = std::max(s.max, v);
+    s.mean += v;
+  }
+  s.mean /= static_cast<double>(ranks.size());
+  return s;
+}
+
+class MpiDriver final : public StepDriver {
+ public:
+  MpiDriver(const integrators::DemSimulation& sim, parallel::DecompositionKind kind)
+      : dem_(sim.state(), sim.settings(), kind) {
+    start_ = dem_.stats();
+    if (root()) parallel::setFollowersWaiting(true);
+  }
+
+  bool root() const override { return parallel::isRoot(); }
+
+  std::int64_t advance(std::int64_t steps) override {
+    parallel::Command c{parallel::Command::Advance, steps};
+    parallel::broadcast(c);
+    collective([&] { dem_.advance(steps, true); });
+    return dem_.step();
+  }
+
+  bool interrupted() const override { return dem_.interrupted(); }
+
+  void sync(integrators::DemSimulation& sim) override {
+    parallel::Command c{parallel::Command::Sync, 0};
+    parallel::broadcast(c);
+    integrators::DemState state;
+    collective([&] { state = dem_.gather(); });
+    sim = integrators::DemSimulation::restore(state, sim.settings());
+  }
+
+  void finish() override {
+    parallel::Command c{parallel::Command::Stop, 0};
+    parallel::broadcast(c);
+    parallel::setFollowersWaiting(false);
+    end_ = dem_.stats();
+  }
+
+  void printStart() const override {
+    fmt::print("parallel: {} MPI ranks, {}; {}\n", parallel::size(), start_.decomposition, ghostsText(start_));
+  }
+
+  void printReport() const override {
+    const auto& ranks = end_.ranks;
+    const Spread owned = spread(ranks, [](const parallel::RankStats& r) { return r.owned; });
+    const Spread ghosts = spread(ranks, [](const parallel::RankStats& r) { return r.ghosts; });
+    const Spread bytes = spread(ranks, [](const parallel::RankStats& r) { return r.ghostBytesPerStep; });
+    const Spread comm = spread(ranks, [](const parallel::RankStats& r) { return r.commSeconds; });
+    const Spread loop = spread(ranks, [](const parallel::RankStats& r) { return r.loopSeconds; });
+    const Spread cost = spread(ranks, [](const parallel::RankStats& r) { return r.cost; });
+    double migrated = 0.0;
+    for (const parallel::RankStats& r : ranks) migrated += r.migrated;
+    fmt::print("\n--- parallel ({} MPI ranks, {} at the end, {} rebalances) ---\n", ranks.size(), end_.decomposition,
+               end_.rebalances);
+    fmt::print("owned per rank        min {:.0f}, mean {:.1f}, max {:.0f}: imbalance max / mean {:.3f}\n", owned.min,
+               owned.mean, owned.max, owned.max / std::max(owned.mean, 1.0));
+    if (cost.mean > 0.0) {
+      fmt::print("cost per rank         particles + candidate pairs at the last build: max / mean {:.3f}\n",
+                 cost.max / cost.mean);
+    }
+    const Spread coarse = spread(ranks, [](const parallel::RankStats& r) { return r.coarseGhosts; });
+    fmt::print("ghosts per rank       {}\n", ghostsText(end_));
+    fmt::print(
+        "ghost rule            the reach field keeps {:.1f} of the {:.1f} ghosts per rank (mean) that the "
+        "distance to the region (r_j + r_max + skin) alone would copy\n",
+        ghosts.mean, coarse.mean);
+    fmt::print("ghost updates         {:.0f} bytes per step per rank (mean; max {:.0f})\n", bytes.mean, bytes.max);
+    fmt::print("migrations            {:.0f} particles moved between ranks at neighbour-list builds\n", migrated);
+    fmt::print(
+        "communication         {:.3f} s per rank (mean; max {:.3f}) of {:.3f} s in the loop (max), gathers to "
+        "rank 0 included\n",
+        comm.mean, comm.max, loop.max);
+    fmt::print(
+        "(the broad phase / force / integration split above is rank 0's serial copy's: not measured in a "
+        "parallel run)\n");
+    SummaryJson& sum = summary();
+    sum.put("parallel.ranks", static_cast<std::int64_t>(ranks.size()));
+    sum.put("parallel.decomposition", end_.decomposition);
+    sum.put("parallel.rebalances", end_.rebalances);
+    sum.put("parallel.owned_max", owned.max);
+    sum.put("parallel.owned_mean", owned.mean);
+    sum.put("parallel.ghosts_max", ghosts.max);
+    sum.put("parallel.ghosts_mean", ghosts.mean);
+    sum.put("parallel.ghosts_distance_rule_mean", coarse.mean);
+    sum.put("parallel.ghost_bytes_per_step_max", bytes.max);
+    sum.put("parallel.migrated", migrated);
+    sum.put("parallel.comm_seconds_max", comm.max);
+  }
+
+  RunSummary serve() override {
+    try {
+      for (;;) {
+        parallel::Command c;
+        parallel::broadcast(c);
+        switch (c.op) {
+          case parallel::Command::Advance:
+            dem_.advance(c.value, true);
+            break;
+          case parallel::Command::Sync:
+            dem_.gather();
+            break;
+          case parallel::Command::Stop: {
+            dem_.stats();
+            RunSummary s;
+            s.interrupted = dem_.interrupted();
+            return s;
+          }
+          case parallel::Command::Fail:
+            parallel::exitFollower(static_cast<int>(c.value));
+          default:
+            parallel::rankFailure(fmt::format("unknown command {} from rank 0", c.op), 1);
+        }
+      }
+    } catch (const parallel::CollectiveError&) {
+      throw;  // every rank throws it; rank 0 reports it
+    } catch (const std::exception& e) {
+      parallel::rankFailure(e.what(), 1);
+    }
+  }
+
+ private:
+  /// Run `f`; a collective error means the followers are no longer waiting for commands.
+  template <class F>
+  void collective(F f) {
+    try {
+      f();
+    } catch (const parallel::CollectiveError&) {
+      parallel::setFollowersWaiting(false);
+      throw;
+    } catch (const std::exception& e) {
+      parallel::rankFailure(e.what(), 1);  // rank 0 alone: the others wait in a collective
+    }
+  }
+
+  static std::string ghostsText(const parallel::ParallelStats& s) {
+    if (s.ranks.empty()) return {};
+    const Spread owned = spread(s.ranks, [](const parallel::RankStats& r) { return r.owned; });
+    const Spread ghosts = spread(s.ranks, [](const parallel::RankStats& r) { return r.ghosts; });
+    return fmt::format(
+        "ghosts per rank min {:.0f}, mean {:.1f}, max {:.0f} ({:.3f} per owned particle); owned per "
+        "rank min {:.0f}, max {:.0f}",
+        ghosts.min, ghosts.mean, ghosts.max, ghosts.mean / std::max(owned.mean, 1.0), owned.min, owned.max);
+  }
+
+  parallel::DistributedDem dem_;
+  parallel::ParallelStats start_, end_;
+};
+
+}  // namespace
+
+bool severalRanks() { return parallel::size() > 1; }
+
+std::unique_ptr<StepDriver> makeStepDriver(const integrators::DemSimulation& sim, const std::string& decomposition) {
+  if (decomposition != "rcb" && decomposition != "brick") {
+    throw ConfigError(fmt::format("--decomposition {}: expected rcb or brick", decomposition));
+  }
+  return std::make_unique<MpiDriver>(
+      sim, decomposition == "brick" ? parallel::DecompositionKind::Brick : parallel::DecompositionKind::Bisection);
+}
+
+void requireParallelSupport(const RelaxScene& scene, bool sweep) {
+  const int ranks = parallel::size();
+  if (sweep) {
+    throw ConfigError(fmt::format(
+        "relax --sweep runs on one process (it reruns the scene per setting); run it without mpirun ({} ranks given)",
+        ranks));
+  }
+  if (scene.compression) {
+    throw ConfigError(fmt::format(
+        "[compression] (soft compression, radii growing) is not supported on {} MPI ranks yet (docs/parallel.md): "
+        "compress on one process (polydem relax without mpirun, output.final = \"packed.h5\"), then relax that "
+        "file on several ranks with particles.file = \"packed.h5\"",
+        ranks));
+  }
+}
+
+}  // namespace polydem::app

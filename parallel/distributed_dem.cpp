@@ -1,0 +1,1180 @@
+// DistributedDem: the serial time loop of integrators::DemSimulation on a brick grid of MPI ranks. The
+// determinism argument is in distributed_dem.hpp and docs/parallel.md; here, the mechanics. Every value that
+// decides a trajectory is computed by the same expressions as in dem_simulation.cpp (the half kicks, the
+// periodic wrap, the wall candidates) or by the same compiled force kernel.
+#include "parallel/distributed_dem.hpp"
+
+#include <fmt/format.h>
+#include <mpi.h>
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+
+#include "broadphase/registry.hpp"
+#include "core/interrupt.hpp"
+#include "integrators/verlet_list.hpp"
+#include "parallel/mpi_session.hpp"
+#include "polydem/config.hpp"
+
+namespace polydem::parallel {
+
+namespace {
+
+std::vector<MPI_Request> requests;  // ghost updates: one Irecv and one Isend per partner (grows only)
+
+/// Wall-clock seconds spent in MPI calls, added to `total` when the scope ends.
+class CommTimer {
+ public:
+  explicit CommTimer(double& total) : total_(total), start_(MPI_Wtime()) {}
+  ~CommTimer() { total_ += MPI_Wtime() - start_; }
+  CommTimer(const CommTimer&) = delete;
+  CommTimer& operator=(const CommTimer&) = delete;
+
+ private:
+  double& total_;
+  double start_;
+};
+
+void mpiCheck(int code, const char* what) {
+  if (code != MPI_SUCCESS) {
+    char text[MPI_MAX_ERROR_STRING];
+    int length = 0;
+    MPI_Error_string(code, text, &length);
+    rankFailure(fmt::format("{} failed: {}", what, std::string(text, static_cast<std::size_t>(length))), 1);
+  }
+}
+
+int toInt(std::size_t n, const char* what) {
+  if (n > static_cast<std::size_t>(INT_MAX)) {
+    rankFailure(fmt::format("{}: {} values exceed one MPI message (2^31 - 1)", what, n), 1);
+  }
+  return static_cast<int>(n);
+}
+
+/// Send out[q] to every rank q; `in` receives the messages concatenated in rank order, inCount[q] doubles
+/// from rank q. Collective.
+void allToAll(const std::vector<std::vector<double>>& out, std::vector<double>& in, std::vector<int>& inCount) {
+  const auto p = out.size();
+  std::vector<int> outCount(p), outDispl(p), inDispl(p);
+  inCount.assign(p, 0);
+  std::size_t total = 0;
+  for (std::size_t q = 0; q < p; ++q) {
+    outCount[q] = toInt(out[q].size(), "particle exchange");
+    outDispl[q] = toInt(total, "particle exchange");
+    total += out[q].size();
+  }
+  std::vector<double> flat;
+  flat.reserve(total);
+  for (const auto& o : out) flat.insert(flat.end(), o.begin(), o.end());
+  mpiCheck(MPI_Alltoall(outCount.data(), 1, MPI_INT, inCount.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Alltoall");
+  std::size_t inTotal = 0;
+  for (std::size_t q = 0; q < p; ++q) {
+    inDispl[q] = toInt(inTotal, "particle exchange");
+    inTotal += static_cast<std::size_t>(inCount[q]);
+  }
+  in.resize(inTotal);
+  mpiCheck(MPI_Alltoallv(flat.data(), outCount.data(), outDispl.data(), MPI_DOUBLE, in.data(), inCount.data(),
+                         inDispl.data(), MPI_DOUBLE, MPI_COMM_WORLD),
+           "MPI_Alltoallv");
+}
+
+/// A history key travels as the bit pattern of a double (exact: MPI copies bytes on one machine type).
+double keyBits(std::uint64_t key) {
+  double d;
+  std::memcpy(&d, &key, sizeof d);
+  return d;
+}
+std::uint64_t keyOf(double d) {
+  std::uint64_t key;
+  std::memcpy(&key, &d, sizeof key);
+  return key;
+}
+
+/// x in `region`: lo <= x < hi per axis, x <= hi on the box's upper face (as Decomposition::owner descends).
+bool inside(const Region& region, const double* x, const Box& box) {
+  for (int k = 0; k < 3; ++k) {
+    if (x[k] < region.lo[k]) return false;
+    if (!(x[k] < region.hi[k]) && region.hi[k] < box.length(k)) return false;
+  }
+  return true;
+}
+
+bool active(const double* values, int width) {
+  for (int k = 0; k < width; ++k) {
+    if (values[k] != 0.0) return true;
+  }
+  return false;
+}
+
+/// Records of (key bits, width values), sorted by key with duplicates dropped, into keys and values.
+void sortedHistory(const std::vector<double>& pool, int width, std::vector<std::uint64_t>& keys,
+                   std::vector<double>& values) {
+  const std::size_t stride = 1 + static_cast<std::size_t>(width);
+  const std::size_t count = pool.size() / stride;
+  std::vector<std::size_t> order(count);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return keyOf(pool[a * stride]) < keyOf(pool[b * stride]); });
+  keys.clear();
+  values.clear();
+  for (const std::size_t e : order) {
+    const std::uint64_t key = keyOf(pool[e * stride]);
+    // A pair whose two particles arrive from different ranks comes twice, with equal values (both ranks
+    // computed it from the same inputs).
+    if (!keys.empty() && keys.back() == key) continue;
+    keys.push_back(key);
+    values.insert(values.end(), pool.begin() + static_cast<std::ptrdiff_t>(e * stride + 1),
+                  pool.begin() + static_cast<std::ptrdiff_t>((e + 1) * stride));
+  }
+}
+
+}  // namespace
+
+// ---- layout of a particle record (migration and new ghosts): key, id, x, v, v_pred, [w, w_pred], r, 1/m, [1/I]
+
+namespace {
+constexpr int kX = 2, kV = 5, kVp = 8, kW = 11, kWp = 14;
+}
+
+int DistributedDem::recordWidth() const { return rotation_ ? 20 : 13; }
+
+void DistributedDem::packRecord(Index i, std::vector<double>& out) const {
+  out.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
+  out.push_back(static_cast<double>(id_[static_cast<std::size_t>(i)]));
+  for (int k = 0; k < 3; ++k) out.push_back(x_(k, i));
+  for (int k = 0; k < 3; ++k) out.push_back(v_(k, i));
+  for (int k = 0; k < 3; ++k) out.push_back(vp_(k, i));
+  if (rotation_) {
+    for (int k = 0; k < 3; ++k) out.push_back(w_(k, i));
+    for (int k = 0; k < 3; ++k) out.push_back(wp_(k, i));
+  }
+  out.push_back(r_[i]);
+  out.push_back(invm_[i]);
+  if (rotation_) out.push_back(invI_[i]);
+}
+
+// ---- construction ---------------------------------------------------------------------------------------
+
+DistributedDem::DistributedDem(const integrators::DemState& g, const integrators::DemSettings& settings,
+                               DecompositionKind kind, double rebalanceThreshold)
+    : box_(g.box),
+      settings_(settings),
+      model_(settings.contact),
+      grid_(Decomposition::brick(g.box, parallel::size())),
+      rebalanceThreshold_(rebalanceThreshold) {
+  rank_ = parallel::rank();
+  size_ = parallel::size();
+  const Index n = static_cast<Index>(g.radius.size());
+  if (n == 0) throw ConfigError("no particles to simulate");
+  if (g.position.cols() != n || g.referencePosition.cols() != n || g.referenceRadius.size() != n ||
+      g.id.size() != static_cast<std::size_t>(n)) {
+    throw InputError("DistributedDem: inconsistent state sizes");
+  }
+  rotation_ = g.rotation;
+  skin_ = g.skin;
+  settings_.skin = skin_;
+  selectKernel();
+  if (kernel_.rotation && !rotation_) throw InputError("DistributedDem: the kernel needs rotation, the state has none");
+  // gather() sends every particle (and each active contact) to rank 0 in one message of doubles.
+  const double perParticle = 24.0 + 6.0 * (1.0 + kernel_.historyWidth);
+  if (static_cast<double>(n) * perParticle > static_cast<double>(INT_MAX)) {
+    throw ConfigError(fmt::format(
+        "{} particles are more than rank 0 can gather in one MPI message (about {:.0f} million at most): outputs and "
+        "checkpoints are gathered to rank 0 (docs/parallel.md)",
+        n, static_cast<double>(INT_MAX) / perParticle / 1e6));
+  }
+  timeStep_ = g.timeStep;
+  dt_ = timeStep_.dt;
+  step_ = g.step;
+  timeOrigin_ = g.timeOrigin;
+  initialEnergy_ = g.initialEnergy;
+  growth_ = g.growthSinceBuild;
+  backend_ = broadphase::makeBroadPhase(settings_.broadPhase);
+
+  // Ownership and ghosts from the positions of the last build: the list is then the serial run's. The
+  // bisection weighs particles by count here (every rank has the global state: no communication).
+  if (kind == DecompositionKind::Bisection) {
+    grid_ = Decomposition::bisection(box_, size_, [&](const Region& region, int axis, double cut) {
+      double w = 0.0;
+      for (Index s = 0; s < n; ++s) {
+        const double* x = &g.referencePosition(0, s);
+        if (x[axis] < cut && inside(region, x, box_)) w += 1.0;
+      }
+      return w;
+    });
+  }
+  std::vector<int> owner(static_cast<std::size_t>(n));
+  rmax_.assign(static_cast<std::size_t>(size_), -1.0);
+  for (Index s = 0; s < n; ++s) {
+    const int q = grid_.owner(&g.referencePosition(0, s));
+    owner[static_cast<std::size_t>(s)] = q;
+    rmax_[static_cast<std::size_t>(q)] = std::max(rmax_[static_cast<std::size_t>(q)], g.referenceRadius[s]);
+  }
+  {
+    std::vector<double> centres, radii;
+    for (Index s = 0; s < n; ++s) {
+      if (owner[static_cast<std::size_t>(s)] != rank_) continue;
+      for (int k = 0; k < 3; ++k) centres.push_back(g.referencePosition(k, s));
+      radii.push_back(g.referenceRadius[s]);
+    }
+    exchangeReach(centres, radii);
+  }
+  std::vector<Index> local;
+  for (Index s = 0; s < n; ++s) {
+    if (owner[static_cast<std::size_t>(s)] == rank_ ||
+        needsGhost(&g.referencePosition(0, s), g.referenceRadius[s], rank_)) {
+      local.push_back(s);
+    }
+  }
+  n_ = static_cast<Index>(local.size());
+  key_.resize(local.size());
+  id_.resize(local.size());
+  owned_.resize(local.size());
+  x_.resize(3, n_);
+  v_.resize(3, n_);
+  f_.resize(3, n_);
+  ref_.resize(3, n_);
+  r_.resize(n_);
+  invm_.resize(n_);
+  refR_.resize(n_);
+  if (rotation_) {
+    w_.resize(3, n_);
+    tq_.resize(3, n_);
+    invI_.resize(n_);
+  }
+  sendSlots_.assign(static_cast<std::size_t>(size_), {});
+  recvSlots_.assign(static_cast<std::size_t>(size_), {});
+  ownedSlots_.clear();
+  for (Index k = 0; k < n_; ++k) {
+    const Index s = local[static_cast<std::size_t>(k)];
+    key_[static_cast<std::size_t>(k)] = s;
+    id_[static_cast<std::size_t>(k)] = g.id[static_cast<std::size_t>(s)];
+    const int q = owner[static_cast<std::size_t>(s)];
+    owned_[static_cast<std::size_t>(k)] = q == rank_;
+    x_.col(k) = g.position.col(s);
+    v_.col(k) = g.velocity.col(s);
+    f_.col(k) = g.force.col(s);
+    ref_.col(k) = g.referencePosition.col(s);
+    refR_[k] = g.referenceRadius[s];
+    r_[k] = g.radius[s];
+    invm_[k] = g.inverseMass[s];
+    if (rotation_) {
+      w_.col(k) = g.angularVelocity.col(s);
+      tq_.col(k) = g.torque.col(s);
+      invI_[k] = g.inverseInertia[s];
+    }
+    if (q == rank_) {
+      ownedSlots_.push_back(k);
+      for (int t = 0; t < size_; ++t) {
+        if (t == rank_) continue;
+        stats_.coarseGhosts += coarseGhost(&g.referencePosition(0, s), g.referenceRadius[s], t) ? 1.0 : 0.0;
+        if (needsGhost(&g.referencePosition(0, s), g.referenceRadius[s], t)) {
+          sendSlots_[static_cast<std::size_t>(t)].push_back(k);
+        }
+      }
+    } else {
+      recvSlots_[static_cast<std::size_t>(q)].push_back(k);
+    }
+  }
+  vp_ = v_;  // as DemSimulation: overwritten by the first opening kick before any use
+  if (rotation_) wp_ = w_;
+  setupGhostBuffers();
+
+  buildList(ref_, refR_);
+  builds_ = g.builds;
+  if (kernel_.historyWidth > 0) {
+    pairHistory_.assign(g.pairKeys, g.pairValues);
+    wallHistory_.assign(g.wallKeys, g.wallValues);
+    pairHistory_.remap(pairKeys_);
+    wallHistory_.remap(wallKeys_);
+  }
+}
+
+void DistributedDem::selectKernel() {
+  // As DemSimulation::selectKernel(): the same flags give the same compiled kernel.
+  flags_.walls = box_.hasWalls();
+  flags_.gravity = settings_.gravity != Eigen::Vector3d::Zero();
+  flags_.viscous = settings_.viscousDamping > 0.0;
+  kernel_ = contact::selectForceKernel(model_, flags_, settings_.generalKernel);
+  pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
+  const auto& p = model_.parameters();
+  bool gravityOnPeriodic = false;
+  for (int k = 0; k < 3; ++k) gravityOnPeriodic |= settings_.gravity[k] != 0.0 && box_.periodic(k);
+  conservative_ = settings_.dissipationFree() && !gravityOnPeriodic;
+  predict_ = settings_.dashpotVelocity == integrators::DashpotVelocity::Predicted &&
+             (p.normalDamped() || flags_.viscous || kernel_.rotation);
+}
+
+bool DistributedDem::coarseGhost(const double* x, double r, int q) const {
+  const double rmaxQ = rmax_[static_cast<std::size_t>(q)];
+  if (rmaxQ < 0.0) return false;  // q owns nothing
+  // A relative margin far above the rounding of the distance: an extra ghost costs a copy, a missing one a pair.
+  const double reach = (r + rmaxQ + skin_) * (1.0 + 1e-9);
+  return grid_.distanceSquared(x, q) <= reach * reach;
+}
+
+bool DistributedDem::needsGhost(const double* x, double r, int q) const {
+  return coarseGhost(x, r, q) && reachAt(q, x) + r >= -1e-9 * (r + skin_);
+}
+
+namespace {
+constexpr int kReachCells = 32;  // per axis
+}
+
+int DistributedDem::reachCell(const double* x) const {
+  int index = 0;
+  for (int k = 2; k >= 0; --k) {
+    const double u = std::floor(x[k] / box_.length(k) * kReachCells);
+    const int c = std::isfinite(u) ? static_cast<int>(std::clamp(u, 0.0, kReachCells - 1.0)) : 0;
+    index = index * kReachCells + c;
+  }
+  return index;
+}
+
+double DistributedDem::reachAt(int q, const double* x) const {
+  const auto& field = reach_[static_cast<std::size_t>(q)];
+  const int cell = reachCell(x);
+  const auto it = std::lower_bound(field.begin(), field.end(), std::make_pair(static_cast<std::int32_t>(cell), -1e300));
+  if (it == field.end() || it->first != cell) return -std::numeric_limits<double>::infinity();
+  return it->second;
+}
+
+void DistributedDem::exchangeReach(const std::vector<double>& centres, const std::vector<double>& radii) {
+  constexpr int G = kReachCells;
+  double rmaxAll = 0.0;
+  for (const double r : rmax_) rmaxAll = std::max(rmaxAll, r);
+  const Region& mine = grid_.region(rank_);
+  double cellSize[3];
+  for (int k = 0; k < 3; ++k) cellSize[k] = box_.length(k) / G;
+  std::vector<double> field(static_cast<std::size_t>(G) * G * G, -std::numeric_limits<double>::infinity());
+  std::vector<int> index[3];
+  std::vector<double> distance[3];
+  for (std::size_t i = 0; i < radii.size(); ++i) {
+    const double* x = centres.data() + 3 * i;
+    const double ball = radii[i] + skin_ + rmaxAll;
+    // A particle whose ball stays inside this rank's region reaches no particle of another rank.
+    double depth = std::numeric_limits<double>::infinity();
+    for (int k = 0; k < 3; ++k) {
+      const double L = box_.length(k);
+      if (mine.lo[k] > 0.0 || box_.periodic(k)) {
+        if (!(mine.lo[k] <= 0.0 && mine.hi[k] >= L)) depth = std::min(depth, x[k] - mine.lo[k]);
+      }
+      if (mine.hi[k] < L || box_.periodic(k)) {
+        if (!(mine.lo[k] <= 0.0 && mine.hi[k] >= L)) depth = std::min(depth, mine.hi[k] - x[k]);
+      }
+    }
+    if (depth > ball) continue;
+    for (int k = 0; k < 3; ++k) {
+      index[k].clear();
+      distance[k].clear();
+      const long first = static_cast<long>(std::floor((x[k] - ball) / cellSize[k]));
+      const long last = static_cast<long>(std::floor((x[k] + ball) / cellSize[k]));
+      const bool periodic = box_.periodic(k);
+      if (periodic && last - first + 1 >= G) {
+        for (int c = 0; c < G; ++c) index[k].push_back(c);
+      } else {
+        for (long c = first; c <= last; ++c) {
+          if (!periodic && (c < 0 || c >= G)) continue;
+          index[k].push_back(static_cast<int>(((c % G) + G) % G));
+        }
+      }
+      for (const int c : index[k]) {
+        distance[k].push_back(intervalDistance(x[k], c * cellSize[k], (c + 1) * cellSize[k], box_.length(k), periodic));
+      }
+    }
+    for (std::size_t a = 0; a < index[2].size(); ++a) {
+      for (std::size_t b = 0; b < index[1].size(); ++b) {
+        const double dzy = distance[2][a] * distance[2][a] + distance[1][b] * distance[1][b];
+        if (dzy > ball * ball) continue;
+        for (std::size_t c = 0; c < index[0].size(); ++c) {
+          const double dsq = dzy + distance[0][c] * distance[0][c];
+          if (dsq > ball * ball) continue;
+          // Rounded down (a lower bound of the distance): the field is never below the exact value.
+          const double value = radii[i] + skin_ - std::sqrt(dsq) * (1.0 - 1e-12);
+          double& f = field[static_cast<std::size_t>((index[2][a] * G + index[1][b]) * G + index[0][c])];
+          f = std::max(f, value);
+        }
+      }
+    }
+  }
+  std::vector<double> sparse;
+  for (std::size_t c = 0; c < field.size(); ++c) {
+    if (field[c] == -std::numeric_limits<double>::infinity()) continue;
+    sparse.push_back(static_cast<double>(c));
+    sparse.push_back(field[c]);
+  }
+  const int count = toInt(sparse.size(), "reach field");
+  std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
+  std::vector<double> all;
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+    std::size_t total = 0;
+    for (int q = 0; q < size_; ++q) {
+      displs[static_cast<std::size_t>(q)] = toInt(total, "reach field");
+      total += static_cast<std::size_t>(counts[static_cast<std::size_t>(q)]);
+    }
+    all.resize(total);
+    mpiCheck(MPI_Allgatherv(sparse.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
+                            MPI_COMM_WORLD),
+             "MPI_Allgatherv");
+  }
+  reach_.assign(static_cast<std::size_t>(size_), {});
+  for (int q = 0; q < size_; ++q) {
+    const std::size_t begin = static_cast<std::size_t>(displs[static_cast<std::size_t>(q)]);
+    const std::size_t end = begin + static_cast<std::size_t>(counts[static_cast<std::size_t>(q)]);
+    for (std::size_t e = begin; e < end; e += 2) {
+      reach_[static_cast<std::size_t>(q)].emplace_back(static_cast<std::int32_t>(all[e]), all[e + 1]);
+    }
+  }
+}
+
+void DistributedDem::setupGhostBuffers() {
+  const int width = 6 + (predict_ ? 3 : 0) + (rotation_ ? 3 + (predict_ ? 3 : 0) : 0);
+  sendOffset_.assign(static_cast<std::size_t>(size_) + 1, 0);
+  recvOffset_.assign(static_cast<std::size_t>(size_) + 1, 0);
+  partners_.clear();
+  for (int q = 0; q < size_; ++q) {
+    const auto uq = static_cast<std::size_t>(q);
+    sendOffset_[uq + 1] = sendOffset_[uq] + width * static_cast<int>(sendSlots_[uq].size());
+    recvOffset_[uq + 1] = recvOffset_[uq] + width * static_cast<int>(recvSlots_[uq].size());
+    if (!sendSlots_[uq].empty() || !recvSlots_[uq].empty()) partners_.push_back(q);
+  }
+  sendBuffer_.resize(static_cast<std::size_t>(sendOffset_.back()));
+  recvBuffer_.resize(static_cast<std::size_t>(recvOffset_.back()));
+  if (requests.size() < 2 * partners_.size()) requests.resize(2 * partners_.size());
+  stats_.ghostBytesPerStep = static_cast<double>(sendBuffer_.size() * sizeof(double));
+  stats_.owned = static_cast<double>(ownedSlots_.size());
+  stats_.ghosts = static_cast<double>(n_) - stats_.owned;
+}
+
+// ---- the neighbour list ---------------------------------------------------------------------------------
+
+void DistributedDem::buildList(const Eigen::Matrix3Xd& centres, const Eigen::VectorXd& radii) {
+  const SphereView spheres{centres, radii};
+  pairs_.clear();
+  if (n_ > 0) {
+    backend_->build(spheres, box_, skin_);
+    backend_->findPairs(spheres, pairs_);
+  }
+  ++builds_;
+  // Pairs between two ghosts belong to other ranks: drop them. The rest in CSR (i, j) order, as VerletList.
+  std::size_t kept = 0;
+  for (const broadphase::Pair& p : pairs_) {
+    if (owned_[static_cast<std::size_t>(p.i)] || owned_[static_cast<std::size_t>(p.j)]) pairs_[kept++] = p;
+  }
+  pairs_.resize(kept);
+  list_.offset.assign(static_cast<std::size_t>(n_) + 1, 0);
+  for (const broadphase::Pair& p : pairs_) ++list_.offset[static_cast<std::size_t>(p.i) + 1];
+  for (Index i = 0; i < n_; ++i)
+    list_.offset[static_cast<std::size_t>(i) + 1] += list_.offset[static_cast<std::size_t>(i)];
+  fill_.assign(list_.offset.begin(), list_.offset.end() - 1);
+  list_.neighbour.resize(pairs_.size());
+  for (const broadphase::Pair& p : pairs_)
+    list_.neighbour[static_cast<std::size_t>(fill_[static_cast<std::size_t>(p.i)]++)] = p.j;
+  for (Index i = 0; i < n_; ++i)
+    std::sort(list_.neighbour.begin() + list_.offset[i], list_.neighbour.begin() + list_.offset[i + 1]);
+
+  // Wall candidates of owned particles, in the serial order (slot, then faces -x +x -y +y -z +z).
+  list_.wallParticle.clear();
+  list_.wallFace.clear();
+  if (box_.hasWalls()) {
+    for (Index i = 0; i < n_; ++i) {
+      if (!owned_[static_cast<std::size_t>(i)]) continue;
+      const double r = radii[i];
+      for (int axis = 0; axis < 3; ++axis) {
+        if (box_.periodic(axis)) continue;
+        const double x = centres(axis, i);
+        if (x - r <= skin_) {
+          list_.wallParticle.push_back(i);
+          list_.wallFace.push_back(static_cast<std::int8_t>(2 * axis));
+        }
+        if (box_.length(axis) - x - r <= skin_) {
+          list_.wallParticle.push_back(i);
+          list_.wallFace.push_back(static_cast<std::int8_t>(2 * axis + 1));
+        }
+      }
+    }
+  }
+  if (settings_.threads > 1) {
+    list_.buildBlocks(settings_.threads);
+    crossScratch_.resize(contact::crossScratchSize(list_.crossCount(), kernel_.rotation));
+    crossTouching_.resize(list_.crossCount());
+  }
+  if (&centres != &ref_) ref_ = centres;
+  if (&radii != &refR_) refR_ = radii;
+  pairKeys_.resize(list_.neighbour.size());
+  for (Index i = 0; i < n_; ++i) {
+    for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+      pairKeys_[static_cast<std::size_t>(c)] =
+          contact::pairKey(id_[static_cast<std::size_t>(i)], id_[static_cast<std::size_t>(list_.neighbour[c])]);
+    }
+  }
+  wallKeys_.resize(list_.wallParticle.size());
+  for (std::size_t c = 0; c < wallKeys_.size(); ++c) {
+    wallKeys_[c] = contact::wallKey(id_[static_cast<std::size_t>(list_.wallParticle[c])], list_.wallFace[c]);
+  }
+  stats_.pairs = static_cast<double>(list_.pairCount());
+}
+
+void DistributedDem::remapHistories(std::vector<double>& pool, std::vector<double>& wallPool) {
+  if (kernel_.historyWidth == 0) return;
+  std::vector<std::uint64_t> keys;
+  std::vector<double> values;
+  sortedHistory(pool, kernel_.historyWidth, keys, values);
+  pairHistory_.assign(keys, values);
+  pairHistory_.remap(pairKeys_);
+  sortedHistory(wallPool, kernel_.historyWidth, keys, values);
+  wallHistory_.assign(keys, values);
+  wallHistory_.remap(wallKeys_);
+}
+
+// ---- one step -------------------------------------------------------------------------------------------
+
+double DistributedDem::openingKickAndDrift() {
+  // The arithmetic of dem_simulation.cpp's halfKick<true, kPredict>, particle by particle.
+  const double half = 0.5 * dt_;
+  const double dt = dt_;
+  double* v = v_.data();
+  double* x = x_.data();
+  double* vp = vp_.data();
+  const double* f = f_.data();
+  const double* ref = ref_.data();
+  double maxSq = 0.0;
+  for (const Index i : ownedSlots_) {
+    const double h = half * invm_[i];
+    double dsq = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const Index a = 3 * i + c;
+      v[a] += h * f[a];
+      x[a] += dt * v[a];
+      if (predict_) vp[a] = v[a] + h * f[a];
+      const double dx = x[a] - ref[a];
+      dsq += dx * dx;
+    }
+    maxSq = std::max(maxSq, dsq);
+  }
+  if (kernel_.rotation) {
+    double* w = w_.data();
+    double* wp = wp_.data();
+    const double* tq = tq_.data();
+    for (const Index i : ownedSlots_) {
+      const double h = half * invI_[i];
+      for (int c = 0; c < 3; ++c) {
+        const Index a = 3 * i + c;
+        w[a] += h * tq[a];
+        if (predict_) wp[a] = w[a] + h * tq[a];
+      }
+    }
+  }
+  return maxSq;
+}
+
+void DistributedDem::closingKick() {
+  const double half = 0.5 * dt_;
+  double* v = v_.data();
+  const double* f = f_.data();
+  for (const Index i : ownedSlots_) {
+    const double h = half * invm_[i];
+    for (int c = 0; c < 3; ++c) v[3 * i + c] += h * f[3 * i + c];
+  }
+  if (kernel_.rotation) {
+    double* w = w_.data();
+    const double* tq = tq_.data();
+    for (const Index i : ownedSlots_) {
+      const double h = half * invI_[i];
+      for (int c = 0; c < 3; ++c) w[3 * i + c] += h * tq[3 * i + c];
+    }
+  }
+}
+
+void DistributedDem::exchangeGhosts() {
+  // What the kernel reads of a ghost and what changes every step: x, v(t + dt/2), the predicted v and the
+  // same for rotation. Radii and masses change only at builds (no radius growth in a parallel run).
+  auto pack = [&](Index i, double* out) {
+    int o = 0;
+    for (int k = 0; k < 3; ++k) out[o++] = x_(k, i);
+    for (int k = 0; k < 3; ++k) out[o++] = v_(k, i);
+    if (predict_) {
+      for (int k = 0; k < 3; ++k) out[o++] = vp_(k, i);
+    }
+    if (rotation_) {
+      for (int k = 0; k < 3; ++k) out[o++] = w_(k, i);
+      if (predict_) {
+        for (int k = 0; k < 3; ++k) out[o++] = wp_(k, i);
+      }
+    }
+    return o;
+  };
+  for (const int q : partners_) {
+    double* out = sendBuffer_.data() + sendOffset_[static_cast<std::size_t>(q)];
+    for (const Index i : sendSlots_[static_cast<std::size_t>(q)]) out += pack(i, out);
+  }
+  {
+    CommTimer timer(stats_.commSeconds);
+    int r = 0;
+    for (const int q : partners_) {
+      const auto uq = static_cast<std::size_t>(q);
+      mpiCheck(MPI_Irecv(recvBuffer_.data() + recvOffset_[uq], recvOffset_[uq + 1] - recvOffset_[uq], MPI_DOUBLE, q, 7,
+                         MPI_COMM_WORLD, &requests[static_cast<std::size_t>(r++)]),
+               "MPI_Irecv");
+    }
+    for (const int q : partners_) {
+      const auto uq = static_cast<std::size_t>(q);
+      mpiCheck(MPI_Isend(sendBuffer_.data() + sendOffset_[uq], sendOffset_[uq + 1] - sendOffset_[uq], MPI_DOUBLE, q, 7,
+                         MPI_COMM_WORLD, &requests[static_cast<std::size_t>(r++)]),
+               "MPI_Isend");
+    }
+    mpiCheck(MPI_Waitall(r, requests.data(), MPI_STATUSES_IGNORE), "MPI_Waitall");
+  }
+  for (const int q : partners_) {
+    const double* in = recvBuffer_.data() + recvOffset_[static_cast<std::size_t>(q)];
+    for (const Index i : recvSlots_[static_cast<std::size_t>(q)]) {
+      for (int k = 0; k < 3; ++k) x_(k, i) = *in++;
+      for (int k = 0; k < 3; ++k) v_(k, i) = *in++;
+      if (predict_) {
+        for (int k = 0; k < 3; ++k) vp_(k, i) = *in++;
+      }
+      if (rotation_) {
+        for (int k = 0; k < 3; ++k) w_(k, i) = *in++;
+        if (predict_) {
+          for (int k = 0; k < 3; ++k) wp_(k, i) = *in++;
+        }
+      }
+    }
+  }
+}
+
+void DistributedDem::rebuild() {
+  // 1. Wrap periodic coordinates exactly as DemSimulation::rebuild() does; a non-finite coordinate or one
+  //    outside a walled box is a fault, reported by the serial check of the gathered state.
+  int fault = 0;
+  for (const Index i : ownedSlots_) {
+    for (int k = 0; k < 3; ++k) {
+      double& xk = x_(k, i);
+      const double L = box_.length(k);
+      if (!std::isfinite(xk)) {
+        fault = 1;
+      } else if (box_.periodic(k)) {
+        if (xk < 0.0 || xk >= L) {
+          xk -= L * std::floor(xk / L);
+          if (xk >= L) xk = 0.0;
+          if (!(xk >= 0.0 && xk < L)) fault = 1;
+        }
+      } else if (xk < 0.0 || xk > L) {
+        fault = 1;
+      }
+    }
+  }
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &fault, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  }
+  if (fault != 0) {
+    failCollectively(
+        fmt::format("step {}: a particle has a non-finite position or left the walled box {} "
+                    "(found at a neighbour-list rebuild)",
+                    step_, box_.describe()));
+  }
+
+  rebalance();
+
+  // 2. New owners; the springs of every active contact go with each of its particles that moves, and stay
+  //    here when one of its particles stays.
+  const auto P = static_cast<std::size_t>(size_);
+  const int width = kernel_.historyWidth;
+  std::vector<int> dest(static_cast<std::size_t>(n_), -1);
+  for (const Index i : ownedSlots_) dest[static_cast<std::size_t>(i)] = grid_.owner(&x_(0, i));
+  std::vector<std::vector<double>> pairOut(P), wallOut(P), particleOut(P);
+  std::vector<double> pairPool, wallPool;
+  auto put = [&](std::vector<double>& to, std::uint64_t key, const double* values) {
+    to.push_back(keyBits(key));
+    to.insert(to.end(), values, values + width);
+  };
+  if (width > 0) {
+    for (Index i = 0; i < n_; ++i) {
+      for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+        const double* values = pairHistory_.values(static_cast<std::size_t>(c));
+        if (!active(values, width)) continue;
+        const Index j = list_.neighbour[c];
+        const int di = dest[static_cast<std::size_t>(i)], dj = dest[static_cast<std::size_t>(j)];
+        const std::uint64_t key = pairKeys_[static_cast<std::size_t>(c)];
+        if (di == rank_ || dj == rank_) put(pairPool, key, values);
+        if (di >= 0 && di != rank_) put(pairOut[static_cast<std::size_t>(di)], key, values);
+        if (dj >= 0 && dj != rank_ && dj != di) put(pairOut[static_cast<std::size_t>(dj)], key, values);
+      }
+    }
+    for (std::size_t c = 0; c < list_.wallParticle.size(); ++c) {
+      const double* values = wallHistory_.values(c);
+      if (!active(values, width)) continue;
+      const int d = dest[static_cast<std::size_t>(list_.wallParticle[c])];
+      put(d == rank_ ? wallPool : wallOut[static_cast<std::size_t>(d)], wallKeys_[c], values);
+    }
+  }
+  std::vector<double> records;  // owned particles after the migration
+  for (const Index i : ownedSlots_) {
+    const int d = dest[static_cast<std::size_t>(i)];
+    if (d == rank_) {
+      packRecord(i, records);
+    } else {
+      packRecord(i, particleOut[static_cast<std::size_t>(d)]);
+      stats_.migrated += 1.0;
+    }
+  }
+  std::vector<double> in;
+  std::vector<int> inCount;
+  {
+    CommTimer timer(stats_.commSeconds);
+    allToAll(particleOut, in, inCount);
+    records.insert(records.end(), in.begin(), in.end());
+    allToAll(pairOut, in, inCount);
+    pairPool.insert(pairPool.end(), in.begin(), in.end());
+    allToAll(wallOut, in, inCount);
+    wallPool.insert(wallPool.end(), in.begin(), in.end());
+  }
+
+  // 3. Owned particles in key order; the largest owned radius of every rank.
+  const auto W = static_cast<std::size_t>(recordWidth());
+  const int rOff = rotation_ ? 17 : 11;
+  const std::size_t owned = records.size() / W;
+  std::vector<std::size_t> order(owned);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return records[a * W] < records[b * W]; });
+  double rmaxMine = -1.0;
+  for (std::size_t o = 0; o < owned; ++o)
+    rmaxMine = std::max(rmaxMine, records[o * W + static_cast<std::size_t>(rOff)]);
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allgather(&rmaxMine, 1, MPI_DOUBLE, rmax_.data(), 1, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+  }
+
+  {
+    std::vector<double> centres, radii;
+    centres.reserve(3 * owned);
+    radii.reserve(owned);
+    for (std::size_t o = 0; o < owned; ++o) {
+      centres.insert(centres.end(), records.begin() + static_cast<std::ptrdiff_t>(o * W + kX),
+                     records.begin() + static_cast<std::ptrdiff_t>(o * W + kX + 3));
+      radii.push_back(records[o * W + static_cast<std::size_t>(rOff)]);
+    }
+    exchangeReach(centres, radii);
+  }
+
+  // 4. Ghosts: every owned particle that can come within the skin of some particle of rank q.
+  std::vector<std::vector<double>> ghostOut(P);
+  std::vector<std::vector<std::size_t>> sendIndex(P);  // position in `order` of each particle sent to q
+  stats_.coarseGhosts = 0.0;
+  for (std::size_t o = 0; o < owned; ++o) {
+    const double* rec = records.data() + order[o] * W;
+    for (int q = 0; q < size_; ++q) {
+      if (q == rank_) continue;
+      stats_.coarseGhosts += coarseGhost(rec + kX, rec[rOff], q) ? 1.0 : 0.0;
+      if (!needsGhost(rec + kX, rec[rOff], q)) continue;
+      ghostOut[static_cast<std::size_t>(q)].insert(ghostOut[static_cast<std::size_t>(q)].end(), rec, rec + W);
+      sendIndex[static_cast<std::size_t>(q)].push_back(o);
+    }
+  }
+  std::vector<double> ghosts;
+  std::vector<int> ghostCount;
+  {
+    CommTimer timer(stats_.commSeconds);
+    allToAll(ghostOut, ghosts, ghostCount);
+  }
+
+  // 5. Owned and ghosts merged in key order.
+  const std::size_t ghostTotal = ghosts.size() / W;
+  std::vector<std::pair<double, std::size_t>> merged;  // (key, o < owned: order[o]; else owned + ghost index)
+  merged.reserve(owned + ghostTotal);
+  for (std::size_t o = 0; o < owned; ++o) merged.emplace_back(records[order[o] * W], o);
+  for (std::size_t gI = 0; gI < ghostTotal; ++gI) merged.emplace_back(ghosts[gI * W], owned + gI);
+  std::sort(merged.begin(), merged.end());
+  n_ = static_cast<Index>(merged.size());
+  key_.resize(merged.size());
+  id_.resize(merged.size());
+  owned_.resize(merged.size());
+  x_.resize(3, n_);
+  v_.resize(3, n_);
+  vp_.resize(3, n_);
+  f_.resize(3, n_);
+  r_.resize(n_);
+  invm_.resize(n_);
+  if (rotation_) {
+    w_.resize(3, n_);
+    wp_.resize(3, n_);
+    tq_.resize(3, n_);
+    invI_.resize(n_);
+    // Without a rotating kernel nothing writes torques (the serial store keeps its zeros); with one, the
+    // force loop overwrites them.
+    tq_.setZero();
+  }
+  std::vector<Index> slotOf(merged.size());
+  ownedSlots_.clear();
+  for (std::size_t s = 0; s < merged.size(); ++s) {
+    const std::size_t code = merged[s].second;
+    const bool mine = code < owned;
+    const double* rec = mine ? records.data() + order[code] * W : ghosts.data() + (code - owned) * W;
+    const auto k = static_cast<Index>(s);
+    slotOf[code] = k;
+    key_[s] = static_cast<Index>(rec[0]);
+    id_[s] = static_cast<Index>(rec[1]);
+    owned_[s] = mine;
+    if (mine) ownedSlots_.push_back(k);
+    for (int c = 0; c < 3; ++c) {
+      x_(c, k) = rec[kX + c];
+      v_(c, k) = rec[kV + c];
+      vp_(c, k) = rec[kVp + c];
+    }
+    if (rotation_) {
+      for (int c = 0; c < 3; ++c) {
+        w_(c, k) = rec[kW + c];
+        wp_(c, k) = rec[kWp + c];
+      }
+      invI_[k] = rec[rOff + 2];
+    }
+    r_[k] = rec[rOff];
+    invm_[k] = rec[rOff + 1];
+  }
+  std::size_t ghostBase = owned;
+  for (std::size_t q = 0; q < P; ++q) {
+    sendSlots_[q].clear();
+    for (const std::size_t o : sendIndex[q]) sendSlots_[q].push_back(slotOf[o]);
+    recvSlots_[q].clear();
+    const std::size_t count = static_cast<std::size_t>(ghostCount[q]) / W;
+    for (std::size_t gI = 0; gI < count; ++gI) recvSlots_[q].push_back(slotOf[ghostBase + gI]);
+    ghostBase += count;
+  }
+  setupGhostBuffers();
+
+  // 6. The list and the springs.
+  refR_ = r_;
+  buildList(x_, refR_);
+  growth_ = 0.0;
+  remapHistories(pairPool, wallPool);
+}
+
+void DistributedDem::rebalance() {
+  // Cost of an owned particle: 1 + its candidate pairs in the list of the last build.
+  std::vector<double> weight(static_cast<std::size_t>(n_), 0.0);
+  for (Index i = 0; i < n_; ++i) {
+    for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+      weight[static_cast<std::size_t>(i)] += 1.0;
+      weight[static_cast<std::size_t>(list_.neighbour[c])] += 1.0;
+    }
+  }
+  double cost = 0.0;
+  for (const Index i : ownedSlots_) {
+    weight[static_cast<std::size_t>(i)] += 1.0;
+    cost += weight[static_cast<std::size_t>(i)];
+  }
+  stats_.cost = cost;
+  double reduced[2] = {cost, cost};
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &reduced[0], 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &reduced[1], 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+  }
+  const double mean = reduced[1] / size_;
+  if (grid_.kind() != DecompositionKind::Bisection || !(reduced[0] > (1.0 + rebalanceThreshold_) * mean)) return;
+  CommTimer timer(stats_.commSeconds);
+  grid_ = Decomposition::bisection(box_, size_, [&](const Region& region, int axis, double cut) {
+    double w = 0.0;
+    for (const Index i : ownedSlots_) {
+      const double* x = &x_(0, i);
+      if (x[axis] < cut && inside(region, x, box_)) w += weight[static_cast<std::size_t>(i)];
+    }
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &w, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+    return w;
+  });
+  ++rebalances_;
+}
+
+contact::ForceContext DistributedDem::context() {
+  contact::ForceContext c;
+  c.count = n_;
+  c.position = x_.data();
+  c.velocityHalf = v_.data();
+  c.velocity = predict_ ? vp_.data() : v_.data();
+  c.radius = r_.data();
+  c.inverseMass = invm_.data();
+  c.force = f_.data();
+  if (kernel_.rotation) {
+    c.angularVelocityHalf = w_.data();
+    c.angularVelocity = predict_ ? wp_.data() : w_.data();
+    c.inverseInertia = invI_.data();
+    c.torque = tq_.data();
+  }
+  c.list = &list_;
+  c.pairHistory = &pairHistory_;
+  c.wallHistory = &wallHistory_;
+  for (int k = 0; k < 3; ++k) {
+    c.length[k] = box_.length(k);
+    c.halfLength[k] = box_.periodic(k) ? 0.5 * box_.length(k) : std::numeric_limits<double>::infinity();
+    c.gravity[k] = settings_.gravity[k];
+  }
+  c.viscousRate = settings_.viscousDamping;
+  c.dt = dt_;
+  c.threads = settings_.threads;
+  c.crossScratch = crossScratch_.data();
+  c.crossTouching = crossTouching_.data();
+  return c;
+}
+
+void DistributedDem::computeForces() {
+  if (n_ > 0) kernel_.run(model_, context());
+}
+
+std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
+  const double start = MPI_Wtime();
+  for (std::int64_t s = 0; s < steps; ++s) {
+    const double limit = std::max(0.0, 0.5 * skin_ - growth_);
+    // One reduction per step: the largest displacement (the rebuild decision, exact) and the interrupt flag.
+    double reduced[2] = {openingKickAndDrift(), interruptRequested() ? 1.0 : 0.0};
+    {
+      CommTimer timer(stats_.commSeconds);
+      mpiCheck(MPI_Allreduce(MPI_IN_PLACE, reduced, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+    }
+    if (reduced[1] > 0.0) interrupted_ = true;
+    if (reduced[0] > limit * limit) {
+      rebuild();
+    } else {
+      exchangeGhosts();
+    }
+    computeForces();
+    closingKick();
+    ++step_;
+    if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) check();
+    if (stopOnInterrupt && interrupted_) {
+      stats_.loopSeconds += MPI_Wtime() - start;
+      return s + 1;
+    }
+  }
+  stats_.loopSeconds += MPI_Wtime() - start;
+  return steps;
+}
+
+// ---- checks, gather, statistics -------------------------------------------------------------------------
+
+void DistributedDem::check() {
+  // The serial check's local parts here; its messages (and the energy of elastic runs, a global sum) from the
+  // serial code on the gathered state, so a failing run reports what the serial run reports.
+  double local[2] = {0.0, 0.0};
+  for (const Index i : ownedSlots_) {
+    bool bad = !x_.col(i).allFinite() || !v_.col(i).allFinite() || (rotation_ && !w_.col(i).allFinite());
+    for (int k = 0; k < 3; ++k) bad |= !box_.periodic(k) && (x_(k, i) < 0.0 || x_(k, i) > box_.length(k));
+    if (bad) local[0] = 1.0;
+  }
+  if (n_ > 0) local[1] = contact::measureContacts(model_, context()).maxOverlapRatio;
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, local, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  }
+  const bool fault = local[0] > 0.0 || !(local[1] <= settings_.stability.maxOverlapFraction);
+  if (!fault && !conservative_) return;
+  const integrators::DemState state = gather();
+  std::string message;
+  if (rank_ == 0) {
+    try {
+      integrators::DemSimulation::restore(state, settings_).checkStability();
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+  }
+  std::int64_t length = static_cast<std::int64_t>(message.size());
+  {
+    CommTimer timer(stats_.commSeconds);
+    mpiCheck(MPI_Bcast(&length, 1, MPI_INT64_T, 0, MPI_COMM_WORLD), "MPI_Bcast");
+    message.resize(static_cast<std::size_t>(length));
+    if (length > 0)
+      mpiCheck(MPI_Bcast(message.data(), static_cast<int>(length), MPI_CHAR, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  }
+  if (!message.empty()) throw CollectiveError(message);
+  if (fault) {
+    throw CollectiveError(
+        fmt::format("step {}: the stability check failed on some rank (non-finite state, a particle "
+                    "outside the walled box or an overlap above {:g} of the smaller radius)",
+                    step_, settings_.stability.maxOverlapFraction));
+  }
+}
+
+void DistributedDem::failCollectively(const std::string& fallback) {
+  const integrators::DemState state = gather();
+  std::string message;
+  if (rank_ == 0) {
+    try {
+      integrators::DemSimulation::restore(state, settings_).checkStability();
+    } catch (const std::exception& e) {
+      message = e.what();
+    }
+  }
+  std::int64_t length = static_cast<std::int64_t>(message.size());
+  mpiCheck(MPI_Bcast(&length, 1, MPI_INT64_T, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  message.resize(static_cast<std::size_t>(length));
+  if (length > 0)
+    mpiCheck(MPI_Bcast(message.data(), static_cast<int>(length), MPI_CHAR, 0, MPI_COMM_WORLD), "MPI_Bcast");
+  throw CollectiveError(message.empty() ? fallback : message);
+}
+
+integrators::DemState DistributedDem::gather() {
+  CommTimer timer(stats_.commSeconds);
+  // Per owned particle: key, id, x, v, F, [w, torque], r, 1/m, [1/I], x_build, r_build.
+  const int W = rotation_ ? 24 : 17;
+  std::vector<double> mine;
+  mine.reserve(ownedSlots_.size() * static_cast<std::size_t>(W));
+  for (const Index i : ownedSlots_) {
+    mine.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
+    mine.push_back(static_cast<double>(id_[static_cast<std::size_t>(i)]));
+    for (int k = 0; k < 3; ++k) mine.push_back(x_(k, i));
+    for (int k = 0; k < 3; ++k) mine.push_back(v_(k, i));
+    for (int k = 0; k < 3; ++k) mine.push_back(f_(k, i));
+    if (rotation_) {
+      for (int k = 0; k < 3; ++k) mine.push_back(w_(k, i));
+      for (int k = 0; k < 3; ++k) mine.push_back(tq_(k, i));
+    }
+    mine.push_back(r_[i]);
+    mine.push_back(invm_[i]);
+    if (rotation_) mine.push_back(invI_[i]);
+    for (int k = 0; k < 3; ++k) mine.push_back(ref_(k, i));
+    mine.push_back(refR_[i]);
+  }
+  // Active springs: each pair once, by the owner of its row (the lower slot); walls by their particle's owner.
+  const int width = kernel_.historyWidth;
+  std::vector<double> springs, wallSprings;
+  if (width > 0) {
+    for (Index i = 0; i < n_; ++i) {
+      if (!owned_[static_cast<std::size_t>(i)]) continue;
+      for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+        const double* values = pairHistory_.values(static_cast<std::size_t>(c));
+        if (!active(values, width)) continue;
+        springs.push_back(keyBits(pairKeys_[static_cast<std::size_t>(c)]));
+        springs.insert(springs.end(), values, values + width);
+      }
+    }
+    for (std::size_t c = 0; c < list_.wallParticle.size(); ++c) {
+      const double* values = wallHistory_.values(c);
+      if (!active(values, width)) continue;
+      wallSprings.push_back(keyBits(wallKeys_[c]));
+      wallSprings.insert(wallSprings.end(), values, values + width);
+    }
+  }
+  auto gatherAll = [&](const std::vector<double>& local) {
+    const int count = toInt(local.size(), "gather to rank 0");
+    std::vector<int> counts(static_cast<std::size_t>(size_)), displs(static_cast<std::size_t>(size_));
+    mpiCheck(MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD), "MPI_Gather");
+    std::vector<double> all;
+    if (rank_ == 0) {
+      std::size_t total = 0;
+      for (int q = 0; q < size_; ++q) {
+        displs[static_cast<std::size_t>(q)] = toInt(total, "gather to rank 0");
+        total += static_cast<std::size_t>(counts[static_cast<std::size_t>(q)]);
+      }
+      toInt(total, "gather to rank 0");
+      all.resize(total);
+    }
+    mpiCheck(MPI_Gatherv(local.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE, 0,
+                         MPI_COMM_WORLD),
+             "MPI_Gatherv");
+    return all;
+  };
+  const std::vector<double> particles = gatherAll(mine);
+  const std::vector<double> allSprings = gatherAll(springs);
+  const std::vector<double> allWallSprings = gatherAll(wallSprings);
+  integrators::DemState s;
+  if (rank_ != 0) return s;
+
+  const auto n = static_cast<Index>(particles.size() / static_cast<std::size_t>(W));
+  s.box = box_;
+  s.step = step_;
+  s.timeOrigin = timeOrigin_;
+  s.timeStep = timeStep_;
+  s.skin = skin_;
+  s.initialEnergy = initialEnergy_;
+  s.growthSinceBuild = growth_;
+  s.builds = builds_;
+  s.rotation = rotation_;
+  s.id.resize(static_cast<std::size_t>(n));
+  s.position.resize(3, n);
+  s.velocity.resize(3, n);
+  s.force.resize(3, n);
+  s.radius.resize(n);
+  s.inverseMass.resize(n);
+  s.referencePosition.resize(3, n);
+  s.referenceRadius.resize(n);
+  if (rotation_) {
+    s.angularVelocity.resize(3, n);
+    s.torque.resize(3, n);
+    s.inverseInertia.resize(n);
+  }
+  std::vector<std::uint8_t> seen(static_cast<std::size_t>(n), 0);
+  for (Index e = 0; e < n; ++e) {
+    const double* rec = particles.data() + static_cast<std::size_t>(e) * static_cast<std::size_t>(W);
+    const auto k = static_cast<Index>(rec[0]);
+    if (k < 0 || k >= n || seen[static_cast<std::size_t>(k)]) {
+      throw std::logic_error(fmt::format("DistributedDem::gather: slot {} missing or owned twice", k));
+    }
+    seen[static_cast<std::size_t>(k)] = 1;
+    s.id[static_cast<std::size_t>(k)] = static_cast<Index>(rec[1]);
+    int o = 2;
+    for (int c = 0; c < 3; ++c) s.position(c, k) = rec[o++];
+    for (int c = 0; c < 3; ++c) s.velocity(c, k) = rec[o++];
+    for (int c = 0; c < 3; ++c) s.force(c, k) = rec[o++];
+    if (rotation_) {
+      for (int c = 0; c < 3; ++c) s.angularVelocity(c, k) = rec[o++];
+      for (int c = 0; c < 3; ++c) s.torque(c, k) = rec[o++];
+    }
+    s.radius[k] = rec[o++];
+    s.inverseMass[k] = rec[o++];
+    if (rotation_) s.inverseInertia[k] = rec[o++];
+    for (int c = 0; c < 3; ++c) s.referencePosition(c, k) = rec[o++];
+    s.referenceRadius[k] = rec[o++];
+  }
+  if (width > 0) {
+    // The serial list of the last build (same pairs, same order as DemSimulation::restore() rebuilds), then
+    // every spring from the ranks, zero for the inactive ones.
+    integrators::VerletList serial(broadphase::makeBroadPhase(settings_.broadPhase), skin_);
+    serial.build(SphereView{s.referencePosition, s.referenceRadius}, box_);
+    serial.keys(s.id, s.pairKeys, s.wallKeys);
+    auto fill = [&](const std::vector<double>& pool, const std::vector<std::uint64_t>& listKeys,
+                    std::vector<double>& values) {
+      std::vector<std::uint64_t> keys;
+      std::vector<double> sortedValues;
+      sortedHistory(pool, width, keys, sortedValues);
+      values.assign(listKeys.size() * static_cast<std::size_t>(width), 0.0);
+      for (std::size_t c = 0; c < listKeys.size(); ++c) {
+        const auto it = std::lower_bound(keys.begin(), keys.end(), listKeys[c]);
+        if (it == keys.end() || *it != listKeys[c]) continue;
+        const auto a = static_cast<std::size_t>(it - keys.begin());
+        std::copy_n(sortedValues.begin() + static_cast<std::ptrdiff_t>(a * static_cast<std::size_t>(width)), width,
+                    values.begin() + static_cast<std::ptrdiff_t>(c * static_cast<std::size_t>(width)));
+      }
+    };
+    fill(allSprings, s.pairKeys, s.pairValues);
+    fill(allWallSprings, s.wallKeys, s.wallValues);
+  }
+  return s;
+}
+
+ParallelStats DistributedDem::stats() {
+  ParallelStats out;
+  out.decomposition = grid_.describe();
+  out.rebalances = rebalances_;
+  constexpr int kFields = 9;
+  const double mine[kFields] = {stats_.owned,      stats_.ghosts, stats_.pairs,        stats_.ghostBytesPerStep,
+                                stats_.migrated,   stats_.cost,   stats_.coarseGhosts, stats_.commSeconds,
+                                stats_.loopSeconds};
+  std::vector<double> all(static_cast<std::size_t>(kFields * size_));
+  mpiCheck(MPI_Gather(mine, kFields, MPI_DOUBLE, all.data(), kFields, MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Gather");
+  if (rank_ != 0) return out;
+  for (int q = 0; q < size_; ++q) {
+    const double* a = all.data() + kFields * q;
+    out.ranks.push_back(RankStats{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]});
+  }
+  return out;
+}
+
+}  // namespace polydem::parallel

@@ -1,0 +1,112 @@
+# polydem relax on MPI ranks (issue 20, docs/parallel.md), label `mpi`: the final state, time series and final
+# checkpoint of mpirun -np 1..4 (oversubscribed on small machines) are byte-identical to the serial run's, for
+# a frictional scene with walls across gravity and a periodic polydisperse one (size ratio 10); checkpoints
+# resume on another rank count; unsupported features are refused. Each run takes seconds.
+set(POLYDEM_MPI_WORK ${CMAKE_CURRENT_BINARY_DIR}/mpi-work)
+file(MAKE_DIRECTORY ${POLYDEM_MPI_WORK})
+# Frictional, polydisperse (size ratio 4), walls across gravity: tests/determinism/relax_reference.toml with a
+# time series, 600 steps.
+file(READ ${CMAKE_CURRENT_SOURCE_DIR}/determinism/relax_reference.toml _polydem_mpi_walls)
+string(REPLACE "final = \"relax_reference_final.txt\"" "timeseries_interval = 50" _polydem_mpi_walls
+               "${_polydem_mpi_walls}")
+string(REPLACE "steps = 1500" "steps = 600" _polydem_mpi_walls "${_polydem_mpi_walls}")  # seconds per test
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_walls.toml "${_polydem_mpi_walls}")
+# Periodic, frictionless with damping, uniform-volume sizes with size ratio 10: large ghosts.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_periodic.toml "[particles]
+count = 1500
+distribution = \"uniform-volume\"
+rmin = 1e-3
+omega = 10.0
+packing_fraction = 0.4
+density = 2500.0
+seed = 3
+[contact]
+stiffness = 1e4
+restitution = 0.8
+[velocities]
+overlap = 0.02
+[run]
+steps = 500
+check_interval = 100
+progress_interval = 0.0
+[output]
+timeseries_interval = 50
+")
+# Periodic and frictional (Cundall-Strack springs and rotation across ranks), mono.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_friction.toml "[particles]
+count = 800
+distribution = \"uniform-radius\"
+rmin = 1e-3
+omega = 1.5
+packing_fraction = 0.38
+density = 2500.0
+seed = 11
+[contact]
+stiffness = 1e4
+restitution = 0.5
+friction = 0.5
+tangential_damping_ratio = 0.5
+[velocities]
+overlap = 0.02
+[run]
+steps = 400
+check_interval = 50
+progress_interval = 0.0
+[output]
+timeseries_interval = 100
+")
+
+# Hertz with Hertz-Mindlin friction, viscous damping, half-step dashpot velocity, walls across gravity.
+string(REPLACE "stiffness = 1e4" "law = \"hertz\"\nstiffness = 1e8\ntangential = \"hertz-mindlin\"\npoisson_ratio = 0.3"
+               _polydem_mpi_hertz "${_polydem_mpi_walls}")
+string(REPLACE "check_interval = 100" "check_interval = 100\nviscous_damping = 20.0\ndashpot_velocity = \"half-step\""
+               _polydem_mpi_hertz "${_polydem_mpi_hertz}")
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_hertz.toml "${_polydem_mpi_hertz}")
+
+set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
+# On 2 busy cores a run of 2-4 ranks takes 10-25 s (every wait for a message gives the core away): one rank
+# count per scene runs in the checked passes, the others are labelled slow too.
+set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3)
+foreach(scene walls periodic friction hertz)
+  add_test(NAME mpi_${scene}_serial
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial -q)
+  set_tests_properties(mpi_${scene}_serial PROPERTIES FIXTURES_SETUP mpi_${scene} TIMEOUT 120 LABELS mpi)
+  foreach(np 1 2 3 4)
+    add_test(NAME mpi_${scene}_np${np}
+             COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                     ${POLYDEM_MPI_WORK} mpi_${scene}.toml ${np} -q)
+    set(_labels mpi)
+    if(NOT mpi_${scene}_np${np} IN_LIST _polydem_mpi_quick)
+      set(_labels "mpi;slow")
+    endif()
+    set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS "${_labels}")
+  endforeach()
+endforeach()
+# The brick grid instead of the (default) cost-weighted recursive coordinate bisection: the same bytes.
+foreach(scene walls periodic)
+  add_test(NAME mpi_${scene}_np3_brick
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_${scene}.toml 3 -q --decomposition brick)
+  set_tests_properties(mpi_${scene}_np3_brick PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 120 LABELS "mpi;slow")
+endforeach()
+# OpenMP threads inside each rank: the same bytes.
+if(POLYDEM_WITH_OPENMP)
+  add_test(NAME mpi_walls_np2_threads2
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_walls.toml 2 -q --threads 2)
+  set_tests_properties(mpi_walls_np2_threads2 PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 120 LABELS "mpi;slow")
+endif()
+add_test(NAME mpi_resume_other_ranks
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_resume.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} mpi_walls.toml 600)
+set_tests_properties(mpi_resume_other_ranks PROPERTIES FIXTURES_REQUIRED mpi_walls TIMEOUT 180 LABELS mpi)
+add_test(NAME mpi_refuse_unsupported
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_refuse.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK})
+set_tests_properties(mpi_refuse_unsupported PROPERTIES TIMEOUT 120 LABELS mpi)
+# The determinism reference scene (tests/determinism) on 3 ranks: its checked-in SHA-256.
+add_test(NAME mpi_determinism_reference_np3
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_reference.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} 3)
+set_tests_properties(mpi_determinism_reference_np3 PROPERTIES TIMEOUT 180 LABELS "mpi;slow")

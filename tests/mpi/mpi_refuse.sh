@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# mpi_refuse.sh POLYDEM MPIEXEC WORK: what a parallel run does not support is refused on 2 ranks with exit
+# code 2 and a message naming it, before anything runs (never run silently wrong).
+set -u
+polydem="$1"; mpiexec="$2"; work="$3"
+export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
+export OMPI_MCA_btl_vader_single_copy_mechanism=none  # containers often forbid the cross-memory attach
+export OMPI_MCA_mpi_yield_when_idle=1 OMP_WAIT_POLICY=PASSIVE  # more ranks (and threads) than cores: waiting ones yield
+# Sanitizer builds: what OpenMPI keeps allocated at MPI_Finalize is not ours (AddressSanitizer errors still fail).
+export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+dir="$work/refuse"; rm -rf "$dir"; mkdir -p "$dir"; cd "$dir" || exit 1
+cp "$work/mpi_walls.toml" scene.toml
+fail() { echo "FAIL: $*"; exit 1; }
+expect() {  # expect REGEX ARGS...: mpirun -np 2 polydem ARGS exits 2 with REGEX in its output, writes no final state
+  local regex="$1"; shift
+  "$mpiexec" --oversubscribe -np 2 "$polydem" "$@" > out.log 2>&1; local code=$?
+  cat out.log
+  [ "$code" -eq 2 ] || fail "polydem $* on 2 ranks: exit $code, expected 2"
+  grep -Eq -- "$regex" out.log || fail "polydem $* on 2 ranks: no message matching '$regex'"
+  [ -e final.txt ] && fail "polydem $* on 2 ranks wrote a final state"
+  return 0
+}
+expect "\[compression\].*not supported on 2 MPI ranks" relax scene.toml -q --set output.final=\"final.txt\" \
+  --set compression.packing_fraction=0.4
+expect "--sweep runs on one process" relax scene.toml -q --sweep dt-factor=50,100
+expect "polydem jam runs on one process.*only .polydem relax." jam -n 50 -o final.txt
+expect "polydem minimise runs on one process" minimise -n 50 -o final.txt
+# --decomposition means nothing without several ranks: refused, not ignored.
+"$polydem" relax scene.toml -q --steps 10 --decomposition brick > serial.log 2>&1; code=$?
+[ "$code" -eq 2 ] && grep -q "applies to runs on several MPI ranks" serial.log || { cat serial.log; fail "serial --decomposition: exit $code"; }
+# The same scene serially and on one rank is fine (the serial code).
+"$mpiexec" -np 1 "$polydem" relax scene.toml -q --steps 10 > one.log 2>&1 || { cat one.log; fail "-np 1"; }
+echo "unsupported features refused on 2 ranks"
