@@ -66,5 +66,34 @@ TEST(TimeLoop, DoesNotAllocateOnceSized) {
   }
 }
 
+#if POLYDEM_WITH_OPENMP
+TEST(TimeLoop, ThreadedRebuildsDoNotAllocateOnceSized) {
+  // 5000 spheres: large enough for the threaded linked-cell sort, chunked pair search and CSR fill (the
+  // small scene above runs them serially). Chunks keep headroom, so pair counts that fluctuate between
+  // rebuilds do not reallocate.
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 5000; ++i) radii.push_back(1.0 + 0.5 * (i % 3));
+  ParticleStore p = test::latticeGas(radii, 0.35, box, 4);
+  DemSettings settings;
+  settings.contact.stiffness = 1e4;
+  settings.contact.restitution = 0.7;
+  settings.skin = 0.05;
+  settings.stability.checkInterval = 25;
+  settings.broadPhase = "linked-cell";
+  settings.threads = 2;
+  assignImpactVelocities(contact::ContactModel(settings.contact), p, 0.02, 1);
+  DemSimulation sim(p, box, settings);
+  sim.advance(600);
+  const std::int64_t rebuilds = sim.rebuilds();
+  gAllocations = 0;
+  gCounting = true;
+  sim.advance(300);
+  gCounting = false;
+  EXPECT_GT(sim.rebuilds(), rebuilds + 5);
+  EXPECT_EQ(gAllocations.load(), 0);
+}
+#endif
+
 }  // namespace
 }  // namespace polydem::integrators
