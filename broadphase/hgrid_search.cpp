@@ -468,10 +468,15 @@ void HGrid<kMode>::findPairChunks(const SphereView& spheres, PairChunks& out) co
   for (int h : occupied_) {
     const Level& lv = levels_[static_cast<std::size_t>(h)];
     const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
-    const std::size_t pieces = std::max<std::size_t>(1, m / grain);
     for (int j : occupied_) {
       const bool searched = kMode == CrossLevel::TopDown ? j < h : j > h;
       if (!searched) continue;
+      // A sphere of level h searches about (s_h / s_j + 2)^3 cells of level j, against 27 for the same-level
+      // stencil: a few large spheres searching a fine level are as much work as many small ones.
+      const double cellsPerSphere = std::pow(lv.nominal / levels_[static_cast<std::size_t>(j)].nominal + 2.0, 3.0);
+      const double work = static_cast<double>(m) * cellsPerSphere / 27.0;
+      const std::size_t pieces = std::clamp<std::size_t>(static_cast<std::size_t>(work / static_cast<double>(grain)), 1,
+                                                         std::max<std::size_t>(1, m / 16));
       for (std::size_t q = 0; q < pieces; ++q) {
         tasks_.push_back({h, j, static_cast<std::size_t>(lv.begin) + m * q / pieces,
                           static_cast<std::size_t>(lv.begin) + m * (q + 1) / pieces});
