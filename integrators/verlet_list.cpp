@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <stdexcept>
 
@@ -54,40 +53,39 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
   backend_->findPairChunks(spheres, pairs_);
   ++builds_;
 
-  // CSR by i, then each row sorted by j: canonical (i, j) order. One thread: a stable counting sort of
-  // the pairs. Several: rows counted and filled from the chunks in parallel with atomic counters (the
-  // order within a row then depends on the schedule), which the row sort makes canonical again.
+  // CSR by i (a stable counting sort of the pairs), then each row sorted by j: canonical (i, j) order.
+  // Several threads: each owns a contiguous range of rows and scans every chunk for the pairs of its rows
+  // (no atomics; the pairs' cell order keeps the range test predictable), so the rows are filled in the
+  // serial order, and the pairs are read once per thread.
   const std::size_t chunks = pairs_.size();
-  const bool threaded = broadphase::parallel::usable(threads_) > 1 && chunks > 1;
+  const int parts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n)) > 1
+                        ? broadphase::parallel::usable(threads_)
+                        : 1;
   list_.offset.assign(static_cast<std::size_t>(n) + 1, 0);
   Index* offset = list_.offset.data();
-  if (threaded) {
-    broadphase::parallel::forEachTask(threads_, chunks, [&](std::size_t k) {
-      for (const broadphase::Pair& p : pairs_[k]) {
-        std::atomic_ref<Index>(offset[p.i + 1]).fetch_add(1, std::memory_order_relaxed);
-      }
-    });
-  } else {
-    for (std::size_t k = 0; k < chunks; ++k) {
-      for (const broadphase::Pair& p : pairs_[k]) ++offset[p.i + 1];
-    }
-  }
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
+                                     [&](std::size_t lo, std::size_t hi) {
+                                       for (std::size_t k = 0; k < chunks; ++k) {
+                                         for (const broadphase::Pair& p : pairs_[k]) {
+                                           if (static_cast<std::size_t>(p.i) - lo < hi - lo) ++offset[p.i + 1];
+                                         }
+                                       }
+                                     });
   for (Index i = 0; i < n; ++i) offset[i + 1] += offset[i];
   fill_.assign(list_.offset.begin(), list_.offset.end() - 1);
   list_.neighbour.resize(static_cast<std::size_t>(offset[n]));
   Index* neighbour = list_.neighbour.data();
   Index* fill = fill_.data();
-  if (threaded) {
-    broadphase::parallel::forEachTask(threads_, chunks, [&](std::size_t k) {
-      for (const broadphase::Pair& p : pairs_[k]) {
-        neighbour[std::atomic_ref<Index>(fill[p.i]).fetch_add(1, std::memory_order_relaxed)] = p.j;
-      }
-    });
-  } else {
-    for (std::size_t k = 0; k < chunks; ++k) {
-      for (const broadphase::Pair& p : pairs_[k]) neighbour[fill[p.i]++] = p.j;
-    }
-  }
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
+                                     [&](std::size_t lo, std::size_t hi) {
+                                       for (std::size_t k = 0; k < chunks; ++k) {
+                                         for (const broadphase::Pair& p : pairs_[k]) {
+                                           if (static_cast<std::size_t>(p.i) - lo < hi - lo) {
+                                             neighbour[fill[p.i]++] = p.j;
+                                           }
+                                         }
+                                       }
+                                     });
   const std::size_t rowParts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n));
   broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), rowParts,
                                      [&](std::size_t b, std::size_t e) {

@@ -9,9 +9,9 @@
 // backend's own build may, depending on the backend).
 //
 // Threads (setThreads): the backend builds and searches in parallel (BroadPhase::setThreads) and hands
-// its pairs over in chunks (PairChunks, no concatenated copy); the rows are counted and filled from the
-// chunks in parallel with atomic counters, so the order inside a row depends on the schedule until each
-// row is sorted, which makes the list the same as with one thread.
+// its pairs over in chunks (PairChunks, no concatenated copy); the rows are counted and filled by threads
+// that each own a contiguous range of rows, in the serial order, and sorted in parallel: the list is the
+// same for every thread count.
 #include <cstdint>
 #include <memory>
 #include <span>
