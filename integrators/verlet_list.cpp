@@ -123,11 +123,14 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
                       std::vector<std::uint64_t>& wallKeys) const {
   pairKeys.resize(list_.neighbour.size());
   const Index n = list_.particleCount();
-  for (Index i = 0; i < n; ++i) {
-    for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
-      pairKeys[static_cast<std::size_t>(c)] = contact::pairKey(ids[i], ids[list_.neighbour[c]]);
+  const std::size_t parts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n));
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), parts, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+        pairKeys[static_cast<std::size_t>(c)] = contact::pairKey(ids[i], ids[list_.neighbour[c]]);
+      }
     }
-  }
+  });
   wallKeys.resize(list_.wallParticle.size());
   for (std::size_t c = 0; c < wallKeys.size(); ++c) {
     wallKeys[c] = contact::wallKey(ids[list_.wallParticle[c]], list_.wallFace[c]);

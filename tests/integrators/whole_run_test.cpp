@@ -291,7 +291,7 @@ TEST(VerletList, ThreadedBuildGivesTheSameListForEveryBackend) {
   for (int i = 0; i < 6000; ++i) radii.push_back(1.0 + 3.0 * ((i * 13) % 17) / 16.0);
   const ParticleStore p =
       test::latticeGas(radii, 0.3, box, 8, false, {Boundary::Periodic, Boundary::Wall, Boundary::Periodic});
-  VerletList serial(broadphase::makeBroadPhase("linked-cell"), 2.0);
+  VerletList serial(broadphase::makeBroadPhase("linked-cell"), 3.0);
   serial.build(p.spheres(), box);
   ASSERT_GT(serial.list().pairCount(), 5000u);
   ASSERT_GT(serial.list().wallCount(), 10u);
@@ -299,7 +299,7 @@ TEST(VerletList, ThreadedBuildGivesTheSameListForEveryBackend) {
     if (!broadphase::makeBroadPhase(name)->capabilities().complete || name == "brute") continue;
     for (int threads : {2, 5}) {
       SCOPED_TRACE(::testing::Message() << name << ", " << threads << " threads");
-      VerletList list(broadphase::makeBroadPhase(name), 2.0);
+      VerletList list(broadphase::makeBroadPhase(name), 3.0);
       list.setThreads(threads);
       list.build(p.spheres(), box);
       EXPECT_EQ(list.list().offset, serial.list().offset);
@@ -308,7 +308,7 @@ TEST(VerletList, ThreadedBuildGivesTheSameListForEveryBackend) {
       EXPECT_EQ(list.list().wallFace, serial.list().wallFace);
     }
   }
-  VerletList list(broadphase::makeBroadPhase("linked-cell"), 2.0);
+  VerletList list(broadphase::makeBroadPhase("linked-cell"), 3.0);
   EXPECT_THROW(list.setThreads(0), ConfigError);
 }
 #endif
