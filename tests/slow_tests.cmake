@@ -9,7 +9,7 @@ foreach(test
     HGridAgreement.UniformVolumeHandSetSizesMatchBruteForce
     # Counts heap allocations over a long DEM run (the sanitizers replace the allocator anyway).
     TimeLoop.DoesNotAllocateOnceSized
-    TimeLoop.ThreadedRebuildsDoNotAllocateOnceSized)
+    VerletList.ThreadedRebuildsDoNotAllocateOnceSized)
   if(NOT "${test}" STREQUAL "")
     set_tests_properties(${test} PROPERTIES LABELS slow)
   endif()

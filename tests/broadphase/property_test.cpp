@@ -329,7 +329,9 @@ TEST_P(BackendProperty, ThreadedBuildsFindTheSerialPairsInTheSerialOrder) {
       chunks.concatenate(joined);
       EXPECT_EQ(joined, expected);
       if (!threadedBackend) continue;
-      if (POLYDEM_WITH_OPENMP) EXPECT_GT(chunks.size(), 1u) << "a threaded backend should search in chunks here";
+      if (POLYDEM_WITH_OPENMP) {
+        EXPECT_GT(chunks.size(), 1u) << "a threaded backend should search in chunks here";
+      }
       bp->build(scene.spheres(), scene.box, skin);  // a rebuild reuses the buffers: same answer
       bp->findPairs(scene.spheres(), got);
       EXPECT_EQ(got, expected);
