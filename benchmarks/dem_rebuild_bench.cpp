@@ -7,6 +7,7 @@
 //
 //   polydem_dem_rebuild_bench --count 200000 --steps 2000 --packing 0.2 --resort-interval 200
 //   polydem_dem_rebuild_bench --count 200000 --steps 2000 --packing 0.2 --resort-interval 0   # never
+//   polydem_dem_rebuild_bench --count 50000 --steps 50 --unsorted       # random order: locality fully lost
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
   std::string backend = "linked-cell";
   int threads = 1;
   integrators::ResortRule resort;
+  bool unsorted = false;
   app.add_option("--count", count, "spheres (radii 1 and --ratio, alternating)")
       ->check(CLI::Range(Index(2), Index(1) << 30))
       ->capture_default_str();
@@ -51,6 +53,9 @@ int main(int argc, char** argv) {
   app.add_option("--resort-threshold", resort.threshold, "re-sort above this order decay")
       ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  app.add_flag("--unsorted", unsorted,
+               "keep the start's random storage order (spatial_sort off: no initial sort, no re-sorts), the state a "
+               "fully decayed order reaches");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -65,6 +70,7 @@ int main(int argc, char** argv) {
     settings.skin = skin;
     settings.threads = threads;
     settings.resort = resort;
+    settings.spatialSort = !unsorted;
     settings.stability.checkInterval = 0;
     integrators::assignImpactVelocities(contact::ContactModel(settings.contact), p, overlap, 1);
     integrators::DemSimulation sim(std::move(p), box, settings);
