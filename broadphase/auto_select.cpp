@@ -60,6 +60,7 @@ void AutoSelect::doBuild(const SphereView& spheres) {
     if (!chosen_ || optimiser_.recomputed()) choose(result, K);
   }
   chosen_->setCounting(counting_);
+  chosen_->setThreads(threads_);
   chosen_->build(spheres, box_, skin_);
 }
 
@@ -68,6 +69,13 @@ void AutoSelect::doUpdate(const SphereView& spheres, std::span<const Index> move
 void AutoSelect::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {
   chosen_->resetCounters();
   chosen_->findPairs(spheres, out);
+  counters_.pairTests += chosen_->counters().pairTests;
+  counters_.cellAccesses += chosen_->counters().cellAccesses;
+}
+
+void AutoSelect::findPairChunks(const SphereView& spheres, PairChunks& out) const {
+  chosen_->resetCounters();
+  chosen_->findPairChunks(spheres, out);
   counters_.pairTests += chosen_->counters().pairTests;
   counters_.cellAccesses += chosen_->counters().cellAccesses;
 }

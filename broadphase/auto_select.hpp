@@ -22,6 +22,7 @@ class AutoSelect final : public BroadPhase {
   std::string_view name() const override { return "auto"; }
   Capabilities capabilities() const override;
   void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
+  void findPairChunks(const SphereView& spheres, PairChunks& out) const override;
   void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;
   std::size_t memoryBytes() const override;
   std::string describe() const override;

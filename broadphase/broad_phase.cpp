@@ -5,11 +5,49 @@
 #include <algorithm>
 #include <cmath>
 
+#include "broadphase/pair_chunks.hpp"
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::broadphase {
 
-std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& box, double skin) {
+namespace {
+
+/// The checks of validateSpheres() without messages, in parallel: {all good, r_min, r_max}. The serial
+/// scan then names the first bad particle, so the error is the serial one.
+struct QuickScan {
+  bool good = true;
+  double rmin = 0.0, rmax = 0.0;
+};
+
+QuickScan scanSpheres([[maybe_unused]] const SphereView& spheres, [[maybe_unused]] const Box& box,
+                      [[maybe_unused]] int threads) {
+  QuickScan q;
+#if POLYDEM_WITH_OPENMP
+  const Index n = spheres.count();
+  q.rmin = spheres.radius[0];
+  q.rmax = q.rmin;
+  bool good = true;
+  double rmin = q.rmin, rmax = q.rmax;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : good) reduction(min : rmin) \
+    reduction(max : rmax)
+  for (Index i = 0; i < n; ++i) {
+    const double r = spheres.radius[i];
+    const Eigen::Vector3d x = spheres.centre.col(i);
+    good = good && std::isfinite(r) && r > 0.0 && x.allFinite() && box.contains(x);
+    rmin = std::min(rmin, r);
+    rmax = std::max(rmax, r);
+  }
+  q.good = good;
+  q.rmin = rmin;
+  q.rmax = rmax;
+#endif
+  return q;
+}
+
+}  // namespace
+
+std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& box, double skin, int threads) {
   if (!(std::isfinite(skin) && skin >= 0.0)) {
     throw ConfigError(fmt::format("skin must be a finite number >= 0, got {}", skin));
   }
@@ -19,7 +57,16 @@ std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& 
   const Index n = spheres.count();
   double rmin = n > 0 ? spheres.radius[0] : 0.0;
   double rmax = rmin;
-  for (Index i = 0; i < n; ++i) {
+  bool scanned = false;
+  if (parallel::usable(threads) > 1 && n >= 4096) {
+    const QuickScan q = scanSpheres(spheres, box, threads);
+    if (q.good) {
+      rmin = q.rmin;
+      rmax = q.rmax;
+      scanned = true;
+    }
+  }
+  for (Index i = 0; i < n && !scanned; ++i) {
     const double r = spheres.radius[i];
     if (!(std::isfinite(r) && r > 0.0)) {
       throw ConfigError(fmt::format("particle {}: radius must be positive and finite, got {}", i, r));
@@ -49,8 +96,18 @@ std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& 
   return {rmin, rmax};
 }
 
+void BroadPhase::setThreads(int threads) {
+  if (threads < 1) throw ConfigError(fmt::format("broad phase threads must be >= 1, got {}", threads));
+  threads_ = threads;
+}
+
+void BroadPhase::findPairChunks(const SphereView& spheres, PairChunks& out) const {
+  out.reset(1);
+  findPairs(spheres, out[0]);
+}
+
 void BroadPhase::build(const SphereView& spheres, const Box& box, double skin) {
-  const auto [rmin, rmax] = validateSpheres(spheres, box, skin);
+  const auto [rmin, rmax] = validateSpheres(spheres, box, skin, threads_);
   box_ = box;
   skin_ = skin;
   minRadius_ = rmin;

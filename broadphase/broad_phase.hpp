@@ -21,6 +21,8 @@
 
 namespace polydem::broadphase {
 
+class PairChunks;
+
 /// A candidate pair, i < j.
 struct Pair {
   Index i, j;
@@ -70,6 +72,11 @@ class BroadPhase {
   /// canonical order). Clears `out` first; reuses its capacity.
   virtual void findPairs(const SphereView& spheres, std::vector<Pair>& out) const = 0;
 
+  /// The pairs of findPairs() in chunks: concatenated in order they are exactly findPairs()' output.
+  /// Threaded backends (linked-cell, hgrid-td/bu, auto) fill one chunk per piece of work in parallel;
+  /// the default is one chunk filled by findPairs(). Reuses the chunks' capacity.
+  virtual void findPairChunks(const SphereView& spheres, PairChunks& out) const;
+
   /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending. Clears `out` first.
   virtual void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const = 0;
 
@@ -78,6 +85,12 @@ class BroadPhase {
 
   /// Human-readable configuration, e.g. "linked-cell 12x12x12 cells of 0.25".
   virtual std::string describe() const { return std::string(name()); }
+
+  /// OpenMP threads for build() and findPairs()/findPairChunks() (>= 1, ConfigError otherwise; a build
+  /// without POLYDEM_WITH_OPENMP runs serially). The pairs, their order and the index are identical for
+  /// every thread count. Counting (setCounting) runs serially. Takes effect at the next call.
+  void setThreads(int threads);
+  int threads() const { return threads_; }
 
   /// Count pair tests and cell accesses in findPairs (slower; for cost-model checks).
   void setCounting(bool on) { counting_ = on; }
@@ -96,6 +109,7 @@ class BroadPhase {
   double maxRadius_ = 0.0;
   double minRadius_ = 0.0;
   bool counting_ = false;
+  int threads_ = 1;
   mutable Counters counters_;
 };
 
@@ -103,7 +117,8 @@ class BroadPhase {
 void sortPairs(std::vector<Pair>& pairs);
 
 /// Check a sphere set and box for build(): throws ConfigError naming the first bad particle.
-/// Returns {min radius, max radius} (0, 0 for an empty set).
-std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& box, double skin);
+/// Returns {min radius, max radius} (0, 0 for an empty set). With threads > 1 the scan runs in parallel
+/// (the same result and the same error).
+std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& box, double skin, int threads = 1);
 
 }  // namespace polydem::broadphase

@@ -12,6 +12,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::broadphase {
@@ -184,22 +185,28 @@ void HGrid<kMode>::index(const SphereView& spheres) {
   const std::size_t levelCount = levels_.size();
   const std::span<const double> sizes(config_.cellSizes);
 
+  const int threads = threads_;
+  store_.setThreads(threads);
+  const std::size_t parts = parallel::chunkCount(threads, un);
+
   // Level of insertion (eq. 2.3) and a stable grouping by level.
   level_.resize(un);
-  levelCount_.assign(levelCount + 1, 0);
-  for (Index i = 0; i < n; ++i) {
-    const int h = hgrid::insertionLevel(sizes, spheres.radius[i], skin_) - 1;
-    POLYDEM_ASSERT(h >= 0, "hgrid: a sphere larger than the top level (resolveConfig checks this)");
-    level_[i] = static_cast<std::uint16_t>(h);
-    ++levelCount_[static_cast<std::size_t>(h) + 1];
-  }
-  for (std::size_t h = 0; h < levelCount; ++h) levelCount_[h + 1] += levelCount_[h];
+  parallel::forEachRange(threads, un, parts, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const int h = hgrid::insertionLevel(sizes, spheres.radius[static_cast<Index>(i)], skin_) - 1;
+      POLYDEM_ASSERT(h >= 0, "hgrid: a sphere larger than the top level (resolveConfig checks this)");
+      level_[i] = static_cast<std::uint16_t>(h);
+    }
+  });
+  levelCount_.resize(levelCount + 1);
+  byLevel_.resize(un);
+  parallel::stableCountingSort(
+      threads, un, levelCount, 0, [&](std::size_t i) { return level_[i]; }, levelCount_.data(), sortScratch_,
+      [&](std::size_t i, Index pos) { byLevel_[static_cast<std::size_t>(pos)] = static_cast<Index>(i); });
   for (std::size_t h = 0; h < levelCount; ++h) {
     levels_[h].begin = levelCount_[h];
     levels_[h].end = levelCount_[h + 1];
   }
-  byLevel_.resize(un);
-  for (Index i = 0; i < n; ++i) byLevel_[static_cast<std::size_t>(levelCount_[level_[i]]++)] = i;
 
   sorted_.resize(un);
   slotOf_.resize(un);
@@ -223,21 +230,31 @@ void HGrid<kMode>::index(const SphereView& spheres) {
     occupied_.push_back(static_cast<int>(h));
     std::uint64_t* key = store_.keys();
     Index* sphere = store_.spheres();
-    for (Index slot = lv.begin; slot < lv.end; ++slot) {
-      const Index i = byLevel_[static_cast<std::size_t>(slot)];
-      key[slot] = keyOf(lv, spheres.centre.col(i).data());
-      sphere[slot] = i;
-    }
-    // Slots in cell order, with the packed copy laid out in the same pass.
-    store_.addLevel(lv, lv.n, lv.nx, lv.nxy, [&](std::size_t slot, Index i, std::uint64_t cellKey) {
-      sorted_[slot] = i;
-      slotOf_[static_cast<std::size_t>(i)] = static_cast<Index>(slot);
-      homeKey_[static_cast<std::size_t>(i)] = cellKey;
-      double* p = packed_.data() + 4 * slot;
-      p[0] = spheres.centre(0, i);
-      p[1] = spheres.centre(1, i);
-      p[2] = spheres.centre(2, i);
-      p[3] = spheres.radius[i];
+    const std::size_t b = static_cast<std::size_t>(lv.begin);
+    const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
+    const std::size_t levelParts = parallel::chunkCount(threads, m);
+    parallel::forEachRange(threads, m, levelParts, [&](std::size_t lo, std::size_t hi) {
+      for (std::size_t slot = b + lo; slot < b + hi; ++slot) {
+        const Index i = byLevel_[slot];
+        key[slot] = keyOf(lv, spheres.centre.col(i).data());
+        sphere[slot] = i;
+      }
+    });
+    // Slots in cell order, then the packed copy laid out in that order.
+    const hgrid::CellStore::Sorted order = store_.addLevel(lv, lv.n, lv.nx, lv.nxy);
+    parallel::forEachRange(threads, m, levelParts, [&](std::size_t lo, std::size_t hi) {
+      for (std::size_t t = lo; t < hi; ++t) {
+        const std::size_t slot = b + t;
+        const Index i = order.sphere[t];
+        sorted_[slot] = i;
+        slotOf_[static_cast<std::size_t>(i)] = static_cast<Index>(slot);
+        homeKey_[static_cast<std::size_t>(i)] = order.key[t];
+        double* p = packed_.data() + 4 * slot;
+        p[0] = spheres.centre(0, i);
+        p[1] = spheres.centre(1, i);
+        p[2] = spheres.centre(2, i);
+        p[3] = spheres.radius[i];
+      }
     });
   }
   levelCounters_.assign(levelCount, Counters{});
@@ -385,7 +402,8 @@ std::size_t HGrid<kMode>::memoryBytes() const {
                       homeKey_.capacity() * sizeof(std::uint64_t) + overflow_.capacity() * sizeof(OverflowRecord) +
                       overflowPos_.capacity() * sizeof(Index) + overflowNext_.capacity() * sizeof(Index) +
                       levelCount_.capacity() * sizeof(Index) + byLevel_.capacity() * sizeof(Index) +
-                      levelCounters_.capacity() * sizeof(Counters);
+                      sortScratch_.capacity() * sizeof(Index) + tasks_.capacity() * sizeof(SearchTask) +
+                      chunks_.memoryBytes() + levelCounters_.capacity() * sizeof(Counters);
   for (const Level& lv : levels_) bytes += lv.overflowTable.capacity() * sizeof(OverflowEntry);
   return bytes;
 }

@@ -55,6 +55,10 @@
 // linked lists, which findPairs / findNeighbours search like any level. The index is rebuilt when the
 // overflow holds more than max(64, N / 8) spheres, so a cell change costs O(1) amortised.
 //
+// Threads (setThreads): the grouping by level, each level's sort by cell (counting or radix sort, stable)
+// and the packed copy run over contiguous parts of the spheres, the pair search over chunks of cells and
+// slots (pair_chunks.hpp); slots, pairs and their order are those of one thread. update() is serial.
+//
 // Files: hgrid.cpp (configuration, levels, build, update, reports), hgrid_search.cpp (search boxes,
 // pair search, overflow search, findNeighbours), hgrid_storage.{hpp,cpp} (cell storage).
 #include <array>
@@ -67,6 +71,7 @@
 #include "broadphase/broad_phase.hpp"
 #include "broadphase/hgrid_config.hpp"
 #include "broadphase/hgrid_storage.hpp"
+#include "broadphase/pair_chunks.hpp"
 
 namespace polydem::broadphase {
 
@@ -134,6 +139,10 @@ class HGrid final : public BroadPhase {
   std::string_view name() const override { return kMode == CrossLevel::TopDown ? "hgrid-td" : "hgrid-bu"; }
   Capabilities capabilities() const override { return {.complete = true, .incremental = true}; }
   void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
+  /// Threaded (setThreads): the same-level search of each level over chunks of its cells, then each
+  /// cross-level search over chunks of the searching level's slots, in the serial order. Serial while
+  /// counting or while update() has spheres in the overflow.
+  void findPairChunks(const SphereView& spheres, PairChunks& out) const override;
   /// Searches every level (own level and both directions), filters with spheresWithinReach(reach).
   void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;
   std::size_t memoryBytes() const override;
@@ -212,10 +221,13 @@ class HGrid final : public BroadPhase {
   std::uint64_t keyOf(const Level& lv, const double* x) const;
   std::array<std::int32_t, 3> cellOf(const Level& lv, const double* x) const;
 
+  /// Same-level pairs found from the occupied cells [cellBegin, cellEnd) of level h (indices into
+  /// store_.cells()).
   template <bool kCount>
-  void sameLevel(int h, std::vector<Pair>& out) const;
+  void sameLevel(int h, std::size_t cellBegin, std::size_t cellEnd, std::vector<Pair>& out) const;
+  /// Cross-level pairs of the spheres in slots [slotBegin, slotEnd) of level h with level j.
   template <bool kCount, bool kAabb>
-  void crossLevel(int h, int j, std::vector<Pair>& out) const;
+  void crossLevel(int h, int j, Index slotBegin, Index slotEnd, std::vector<Pair>& out) const;
   template <bool kCount>
   void pairsImpl(std::vector<Pair>& out) const;
   template <bool kCount>
@@ -271,6 +283,16 @@ class HGrid final : public BroadPhase {
   // Build scratch (kept to avoid allocations).
   std::vector<Index> levelCount_;
   std::vector<Index> byLevel_;
+  std::vector<Index> sortScratch_;  // histograms of the grouping by level
+
+  // Threaded search: pieces of work in the serial order (h == j: same level over cells [begin, end),
+  // else level h's slots [begin, end) searching level j), and their pairs.
+  struct SearchTask {
+    int h, j;
+    std::size_t begin, end;
+  };
+  mutable std::vector<SearchTask> tasks_;
+  mutable PairChunks chunks_;
 
   mutable std::vector<Counters> levelCounters_;
 };

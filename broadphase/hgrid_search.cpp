@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "broadphase/hgrid.hpp"
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::broadphase {
@@ -194,7 +195,7 @@ void HGrid<kMode>::forEachOverflowInBox(const Level& lv, const double* x, double
 
 template <CrossLevel kMode>
 template <bool kCount>
-void HGrid<kMode>::sameLevel(int h, std::vector<Pair>& out) const {
+void HGrid<kMode>::sameLevel(int h, std::size_t cellBegin, std::size_t cellEnd, std::vector<Pair>& out) const {
   const Level& lv = levels_[static_cast<std::size_t>(h)];
   const double* p = packed_.data();
   const Index* sorted = sorted_.data();
@@ -212,7 +213,7 @@ void HGrid<kMode>::sameLevel(int h, std::vector<Pair>& out) const {
 
   std::array<std::uint64_t, 27> block{};
   const std::vector<hgrid::OccupiedCell>& cells = store_.cells();
-  for (std::size_t c = lv.cellBegin; c < lv.cellEnd; ++c) {
+  for (std::size_t c = cellBegin; c < cellEnd; ++c) {
     const hgrid::OccupiedCell& cell = cells[c];
     const Index a0 = cell.begin, a1 = cell.end;
     const std::uint64_t m = static_cast<std::uint64_t>(a1 - a0);
@@ -308,15 +309,14 @@ void HGrid<kMode>::sameLevel(int h, std::vector<Pair>& out) const {
 
 template <CrossLevel kMode>
 template <bool kCount, bool kAabb>
-void HGrid<kMode>::crossLevel(int h, int j, std::vector<Pair>& out) const {
-  const Level& from = levels_[static_cast<std::size_t>(h)];
+void HGrid<kMode>::crossLevel(int h, int j, Index slotBegin, Index slotEnd, std::vector<Pair>& out) const {
   const Level& to = levels_[static_cast<std::size_t>(j)];
   const double* p = packed_.data();
   const Index* sorted = sorted_.data();
   const double halfBase = 0.5 * skin_ + 0.5 * to.nominal;  // beta = r_p + skin/2 + s_j/2
   const double skin = skin_;
   std::uint64_t tests = 0, accesses = 0;
-  for (Index s = from.begin; s < from.end; ++s) {
+  for (Index s = slotBegin; s < slotEnd; ++s) {
     const Index ip = sorted[s];
     if (ip < 0) continue;  // tombstone: the sphere is in the overflow
     const double* ps = p + 4 * s;
@@ -394,15 +394,19 @@ template <CrossLevel kMode>
 template <bool kCount>
 void HGrid<kMode>::pairsImpl(std::vector<Pair>& out) const {
   if constexpr (kCount) levelCounters_.assign(levels_.size(), Counters{});
-  for (int h : occupied_) sameLevel<kCount>(h, out);
   for (int h : occupied_) {
+    const Level& lv = levels_[static_cast<std::size_t>(h)];
+    sameLevel<kCount>(h, lv.cellBegin, lv.cellEnd, out);
+  }
+  for (int h : occupied_) {
+    const Level& from = levels_[static_cast<std::size_t>(h)];
     for (int j : occupied_) {
       const bool searched = kMode == CrossLevel::TopDown ? j < h : j > h;
       if (!searched) continue;
       if (aabbPrecheck_) {
-        crossLevel<kCount, true>(h, j, out);
+        crossLevel<kCount, true>(h, j, from.begin, from.end, out);
       } else {
-        crossLevel<kCount, false>(h, j, out);
+        crossLevel<kCount, false>(h, j, from.begin, from.end, out);
       }
     }
   }
@@ -416,13 +420,81 @@ void HGrid<kMode>::pairsImpl(std::vector<Pair>& out) const {
 }
 
 template <CrossLevel kMode>
-void HGrid<kMode>::findPairs(const SphereView&, std::vector<Pair>& out) const {
+void HGrid<kMode>::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {
   out.clear();
   if (counting_) {
     pairsImpl<true>(out);
-  } else {
+  } else if (parallel::chunkCount(threads_, sorted_.size()) == 1 || !overflow_.empty()) {
     pairsImpl<false>(out);
+  } else {
+    findPairChunks(spheres, chunks_);
+    chunks_.concatenate(out);
   }
+}
+
+template <CrossLevel kMode>
+void HGrid<kMode>::findPairChunks(const SphereView& spheres, PairChunks& out) const {
+  const std::size_t n = sorted_.size();
+  if (counting_ || !overflow_.empty() || parallel::chunkCount(threads_, n) == 1) {
+    out.reset(1);
+    findPairs(spheres, out[0]);
+    return;
+  }
+  // Pieces of about `grain` spheres each, in the order pairsImpl() searches: every same-level search, then
+  // every cross-level search. Each piece fills its own chunk, so the chunks in order are the serial output.
+  const std::size_t grain = std::max<std::size_t>(1024, n / (8 * static_cast<std::size_t>(parallel::usable(threads_))));
+  tasks_.clear();
+  const std::vector<hgrid::OccupiedCell>& cells = store_.cells();
+  for (int h : occupied_) {
+    const Level& lv = levels_[static_cast<std::size_t>(h)];
+    const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
+    const std::size_t pieces = std::max<std::size_t>(1, m / grain);
+    std::size_t from = lv.cellBegin;
+    for (std::size_t q = 1; q <= pieces; ++q) {
+      std::size_t to = lv.cellEnd;
+      if (q < pieces) {
+        // First cell starting at or after the slot that ends piece q.
+        const Index slot = lv.begin + static_cast<Index>(m * q / pieces);
+        to = static_cast<std::size_t>(
+            std::lower_bound(cells.begin() + static_cast<std::ptrdiff_t>(from),
+                             cells.begin() + static_cast<std::ptrdiff_t>(lv.cellEnd), slot,
+                             [](const hgrid::OccupiedCell& c, Index s) { return c.begin < s; }) -
+            cells.begin());
+      }
+      if (to > from) tasks_.push_back({h, h, from, to});
+      from = to;
+    }
+  }
+  for (int h : occupied_) {
+    const Level& lv = levels_[static_cast<std::size_t>(h)];
+    const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
+    for (int j : occupied_) {
+      const bool searched = kMode == CrossLevel::TopDown ? j < h : j > h;
+      if (!searched) continue;
+      // A sphere of level h searches about (s_h / s_j + 2)^3 cells of level j, against 27 for the same-level
+      // stencil: a few large spheres searching a fine level are as much work as many small ones.
+      const double cellsPerSphere = std::pow(lv.nominal / levels_[static_cast<std::size_t>(j)].nominal + 2.0, 3.0);
+      const double work = static_cast<double>(m) * cellsPerSphere / 27.0;
+      const std::size_t pieces = std::clamp<std::size_t>(static_cast<std::size_t>(work / static_cast<double>(grain)), 1,
+                                                         std::max<std::size_t>(1, m / 16));
+      for (std::size_t q = 0; q < pieces; ++q) {
+        tasks_.push_back({h, j, static_cast<std::size_t>(lv.begin) + m * q / pieces,
+                          static_cast<std::size_t>(lv.begin) + m * (q + 1) / pieces});
+      }
+    }
+  }
+  out.reset(tasks_.size());
+  parallel::forEachTask(threads_, tasks_.size(), [&](std::size_t k) {
+    const SearchTask& t = tasks_[k];
+    if (t.h == t.j) {
+      sameLevel<false>(t.h, t.begin, t.end, out[k]);
+    } else if (aabbPrecheck_) {
+      crossLevel<false, true>(t.h, t.j, static_cast<Index>(t.begin), static_cast<Index>(t.end), out[k]);
+    } else {
+      crossLevel<false, false>(t.h, t.j, static_cast<Index>(t.begin), static_cast<Index>(t.end), out[k]);
+    }
+    out.keepHeadroom(k);
+  });
 }
 
 template <CrossLevel kMode>
@@ -458,6 +530,7 @@ void HGrid<kMode>::findNeighbours(const SphereView& spheres, Index i, double rea
 // The class is instantiated in hgrid.cpp; the members defined here are instantiated here.
 #define POLYDEM_HGRID_SEARCH_MEMBERS(kMode)                                                                \
   template void HGrid<kMode>::findPairs(const SphereView&, std::vector<Pair>&) const;                      \
+  template void HGrid<kMode>::findPairChunks(const SphereView&, PairChunks&) const;                        \
   template void HGrid<kMode>::findNeighbours(const SphereView&, Index, double, std::vector<Index>&) const; \
   template HGrid<kMode>::BoxCells HGrid<kMode>::boxOn(const Level&, const double*, double) const;          \
   template bool HGrid<kMode>::inBox(const BoxCells&, const Level&, const std::int32_t*);                   \

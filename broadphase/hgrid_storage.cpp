@@ -6,31 +6,31 @@
 #include <algorithm>
 #include <utility>
 
+#include "broadphase/parallel.hpp"
+
 namespace polydem::broadphase::hgrid {
 
 namespace {
 
-// LSD radix sort of (key, value) by key, keys < 2^bits, 11-bit digits; stable. Returns the buffers
-// holding the result (the inputs or the scratch ones).
+// LSD radix sort of (key, value) by key, keys < 2^bits, 11-bit digits; stable, each pass a stable
+// counting sort (threaded over parts of the items, the same result for any thread count). Returns the
+// buffers holding the result (the inputs or the scratch ones).
 std::pair<std::uint64_t*, Index*> radixSort(std::uint64_t* key, Index* val, std::uint64_t* keyTmp, Index* valTmp,
-                                            std::size_t n, int bits) {
+                                            std::size_t n, int bits, int threads, std::vector<Index>& scratch) {
   constexpr int kDigit = 11;
   constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
-  std::array<Index, kBuckets> count;
+  std::array<Index, kBuckets + 1> start;
   for (int shift = 0; shift < bits; shift += kDigit) {
-    count.fill(0);
-    for (std::size_t i = 0; i < n; ++i) ++count[(key[i] >> shift) & (kBuckets - 1)];
-    Index running = 0;
-    for (Index& c : count) {
-      const Index here = c;
-      c = running;
-      running += here;
-    }
-    for (std::size_t i = 0; i < n; ++i) {
-      const Index pos = count[(key[i] >> shift) & (kBuckets - 1)]++;
-      keyTmp[pos] = key[i];
-      valTmp[pos] = val[i];
-    }
+    const std::uint64_t* k = key;
+    const Index* v = val;
+    std::uint64_t* kt = keyTmp;
+    Index* vt = valTmp;
+    parallel::stableCountingSort(
+        threads, n, kBuckets, 0, [&](std::size_t i) { return (k[i] >> shift) & (kBuckets - 1); }, start.data(), scratch,
+        [&](std::size_t i, Index pos) {
+          kt[pos] = k[i];
+          vt[pos] = v[i];
+        });
     std::swap(key, keyTmp);
     std::swap(val, valTmp);
   }
@@ -72,29 +72,87 @@ CellStore::Sorted CellStore::sortLevel(LevelCells& lv, std::uint64_t cellCount) 
   const double cells = static_cast<double>(cellCount);
   if (denseLimit_ > 0.0 && cells <= denseLimit_ * count + 64.0) {
     lv.kind = CellStorage::Dense;
-    // Counting sort by cell: cs[c] ends as the first slot of cell c, cs[cells] = end of the level.
+    // Counting sort by cell: cs[c] = the first slot of cell c, cs[cells] = end of the level.
     lv.denseOffset = cellStart_.size();
     cellStart_.resize(lv.denseOffset + cellCount + 1, 0);
     Index* cs = cellStart_.data() + lv.denseOffset;
-    for (std::size_t t = 0; t < m; ++t) ++cs[keyA_[b + t]];
-    Index running = lv.begin;
-    for (std::uint64_t c = 0; c < cellCount; ++c) {
-      running += cs[c];
-      cs[c] = running;
-    }
-    cs[cellCount] = running;
-    for (std::size_t t = m; t-- > 0;) {
-      const Index slot = --cs[keyA_[b + t]];
-      keyB_[static_cast<std::size_t>(slot)] = keyA_[b + t];
-      idxB_[static_cast<std::size_t>(slot)] = idxA_[b + t];
-    }
+    const std::uint64_t* key = keyA_.data() + b;
+    const Index* idx = idxA_.data() + b;
+    parallel::stableCountingSort(
+        threads_, m, static_cast<std::size_t>(cellCount), lv.begin, [&](std::size_t t) { return key[t]; }, cs,
+        histogram_,
+        [&](std::size_t t, Index slot) {
+          keyB_[static_cast<std::size_t>(slot)] = key[t];
+          idxB_[static_cast<std::size_t>(slot)] = idx[t];
+        });
     return {keyB_.data() + b, idxB_.data() + b};
   }
   // Too sparse for a dense cell-start array but not too sparse: a "ranked" level.
   lv.kind = rankedLimit_ > 0.0 && cells <= rankedLimit_ * count + 4096.0 ? CellStorage::Ranked : CellStorage::Hashed;
   const int bits = cellCount > 1 ? std::bit_width(cellCount - 1) : 0;
-  const auto [k, v] = radixSort(keyA_.data() + b, idxA_.data() + b, keyB_.data() + b, idxB_.data() + b, m, bits);
+  const auto [k, v] =
+      radixSort(keyA_.data() + b, idxA_.data() + b, keyB_.data() + b, idxB_.data() + b, m, bits, threads_, histogram_);
   return {k, v};
+}
+
+CellStore::Sorted CellStore::addLevel(LevelCells& lv, const std::array<int, 3>& n, std::uint64_t nx,
+                                      std::uint64_t nxy) {
+  const std::uint64_t cellCount = nxy * static_cast<std::uint64_t>(n[2]);
+  const Sorted sorted = sortLevel(lv, cellCount);
+  listCells(lv, sorted, n, nx, nxy);
+  if (lv.kind != CellStorage::Dense) buildSparseMap(lv, cellCount);
+  return sorted;
+}
+
+void CellStore::listCells(LevelCells& lv, const Sorted& sorted, const std::array<int, 3>& n, std::uint64_t nx,
+                          std::uint64_t nxy) {
+  const std::size_t b = static_cast<std::size_t>(lv.begin);
+  const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
+  const std::uint64_t* key = sorted.key;
+  auto opens = [&](std::size_t t) { return t == 0 || key[t] != key[t - 1]; };
+  auto cellAt = [&](std::size_t t) {
+    OccupiedCell cell;
+    cell.key = key[t];
+    cell.c[0] = static_cast<std::int32_t>(key[t] % nx);
+    cell.c[1] = static_cast<std::int32_t>((key[t] / nx) % static_cast<std::uint64_t>(n[1]));
+    cell.c[2] = static_cast<std::int32_t>(key[t] / nxy);
+    cell.begin = static_cast<Index>(b + t);
+    cell.end = lv.end;
+    return cell;
+  };
+  lv.cellBegin = cells_.size();
+  const std::size_t parts = parallel::chunkCount(threads_, m);
+  if (parts == 1) {
+    for (std::size_t t = 0; t < m; ++t) {
+      if (!opens(t)) continue;
+      if (t > 0) cells_.back().end = static_cast<Index>(b + t);
+      cells_.push_back(cellAt(t));
+    }
+    lv.cellEnd = cells_.size();
+    return;
+  }
+  // Two passes over contiguous parts of the slots: count the cells each part opens, then write them at
+  // their offsets; a cell ends where the next one begins. The same list as the serial loop.
+  runStart_.assign(parts + 1, 0);
+  parallel::forEachTask(threads_, parts, [&](std::size_t p) {
+    Index opened = 0;
+    for (std::size_t t = m * p / parts; t < m * (p + 1) / parts; ++t) opened += opens(t) ? 1 : 0;
+    runStart_[p + 1] = opened;
+  });
+  for (std::size_t p = 0; p < parts; ++p) runStart_[p + 1] += runStart_[p];
+  const std::size_t first = cells_.size();
+  cells_.resize(first + static_cast<std::size_t>(runStart_[parts]));
+  parallel::forEachTask(threads_, parts, [&](std::size_t p) {
+    std::size_t at = first + static_cast<std::size_t>(runStart_[p]);
+    for (std::size_t t = m * p / parts; t < m * (p + 1) / parts; ++t) {
+      if (opens(t)) cells_[at++] = cellAt(t);
+    }
+  });
+  const std::size_t last = cells_.size();
+  parallel::forEachRange(threads_, last - first, parts, [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t c = first + lo; c < first + hi; ++c) cells_[c].end = c + 1 < last ? cells_[c + 1].begin : lv.end;
+  });
+  lv.cellEnd = last;
 }
 
 void CellStore::buildSparseMap(LevelCells& lv, std::uint64_t cellCount) {
@@ -137,7 +195,7 @@ std::size_t CellStore::memoryBytes() const {
   return cellStart_.capacity() * sizeof(Index) + table_.capacity() * sizeof(HashEntry) +
          bitmap_.capacity() * sizeof(std::uint64_t) + rank_.capacity() * sizeof(std::uint32_t) +
          cells_.capacity() * sizeof(OccupiedCell) + (keyA_.capacity() + keyB_.capacity()) * sizeof(std::uint64_t) +
-         (idxA_.capacity() + idxB_.capacity()) * sizeof(Index);
+         (idxA_.capacity() + idxB_.capacity() + histogram_.capacity() + runStart_.capacity()) * sizeof(Index);
 }
 
 std::string CellStore::checkMap(const LevelCells& lv, std::uint64_t cellCount) const {

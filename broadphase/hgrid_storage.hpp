@@ -92,11 +92,18 @@ class CellStore {
   std::uint64_t* keys() { return keyA_.data(); }
   Index* spheres() { return idxA_.data(); }
 
-  /// Sort the slots [lv.begin, lv.end) (non-empty) of a level of n[0] x n[1] x n[2] cells by key, list its
-  /// occupied cells and build its map. Calls place(slot, sphere, key) once per slot in slot order, so
-  /// the grid can lay out its per-slot data in the same pass. O(m + cells) dense, O(m) otherwise.
-  template <class Place>
-  void addLevel(LevelCells& lv, const std::array<int, 3>& n, std::uint64_t nx, std::uint64_t nxy, Place&& place);
+  /// Keys and spheres of a level's slots in sorted order (t = slot - lv.begin), valid until reset().
+  struct Sorted {
+    const std::uint64_t* key;  // keys in slot order
+    const Index* sphere;       // spheres in slot order
+  };
+  /// Sort the slots [lv.begin, lv.end) (non-empty) of a level of n[0] x n[1] x n[2] cells by key (stable:
+  /// slots of one cell keep their order), list its occupied cells and build its map. The caller lays out
+  /// its per-slot data from the returned order. O(m + cells) dense, O(m) otherwise; threaded
+  /// (setThreads), with the same result for any thread count.
+  Sorted addLevel(LevelCells& lv, const std::array<int, 3>& n, std::uint64_t nx, std::uint64_t nxy);
+  /// Threads for addLevel (>= 1).
+  void setThreads(int threads) { threads_ = threads; }
 
   /// First slot of the first occupied cell with a key >= `key` (key <= cells; dense and ranked levels).
   [[gnu::always_inline]] inline Index startOf(const LevelCells& lv, std::uint64_t key) const;
@@ -115,14 +122,13 @@ class CellStore {
     std::uint64_t key;
     Index begin, end;
   };
-  struct Sorted {
-    const std::uint64_t* key;  // keys in slot order
-    const Index* sphere;       // spheres in slot order
-  };
   /// Choose the level's storage kind and sort its slots (a counting sort fills the dense cell starts).
   Sorted sortLevel(LevelCells& lv, std::uint64_t cellCount);
   /// The ranked bitmap or the hash table of a sparse level, from its occupied cells.
   void buildSparseMap(LevelCells& lv, std::uint64_t cellCount);
+  /// Append the level's occupied cells (runs of equal keys in `sorted`) to cells_.
+  void listCells(LevelCells& lv, const Sorted& sorted, const std::array<int, 3>& n, std::uint64_t nx,
+                 std::uint64_t nxy);
 
   double denseLimit_ = 8.0;
   double rankedLimit_ = 256.0;
@@ -134,35 +140,10 @@ class CellStore {
   // Sort buffers (kept to avoid allocations).
   std::vector<std::uint64_t> keyA_, keyB_;
   std::vector<Index> idxA_, idxB_;
+  std::vector<Index> histogram_;  // counting-sort histograms (one per part when threaded)
+  std::vector<Index> runStart_;   // listCells with threads: occupied cells per part
+  int threads_ = 1;
 };
-
-template <class Place>
-void CellStore::addLevel(LevelCells& lv, const std::array<int, 3>& n, std::uint64_t nx, std::uint64_t nxy,
-                         Place&& place) {
-  const std::uint64_t cellCount = nxy * static_cast<std::uint64_t>(n[2]);
-  const Sorted sorted = sortLevel(lv, cellCount);
-  lv.cellBegin = cells_.size();
-  const std::size_t b = static_cast<std::size_t>(lv.begin);
-  const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
-  for (std::size_t t = 0; t < m; ++t) {
-    const std::size_t slot = b + t;
-    place(slot, sorted.sphere[t], sorted.key[t]);
-    if (t == 0 || sorted.key[t] != sorted.key[t - 1]) {
-      if (t > 0) cells_.back().end = static_cast<Index>(slot);
-      const std::uint64_t key = sorted.key[t];
-      OccupiedCell cell;
-      cell.key = key;
-      cell.c[0] = static_cast<std::int32_t>(key % nx);
-      cell.c[1] = static_cast<std::int32_t>((key / nx) % static_cast<std::uint64_t>(n[1]));
-      cell.c[2] = static_cast<std::int32_t>(key / nxy);
-      cell.begin = static_cast<Index>(slot);
-      cell.end = lv.end;
-      cells_.push_back(cell);
-    }
-  }
-  lv.cellEnd = cells_.size();
-  if (lv.kind != CellStorage::Dense) buildSparseMap(lv, cellCount);
-}
 
 inline Index CellStore::startOf(const LevelCells& lv, std::uint64_t key) const {
   if (lv.kind == CellStorage::Dense) return cellStart_[lv.denseOffset + key];

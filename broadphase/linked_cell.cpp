@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "broadphase/pair_chunks.hpp"
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::broadphase {
@@ -42,24 +44,36 @@ void LinkedCell::doBuild(const SphereView& spheres) {
         if (dz > 0 || (dz == 0 && dy > 0) || (dz == 0 && dy == 0 && dx > 0)) halfShell_.push_back({dx, dy, dz});
 
   const int totalCells = cells_[0] * cells_[1] * cells_[2];
-  cellStart_.assign(static_cast<std::size_t>(totalCells) + 1, 0);
+  cellStart_.resize(static_cast<std::size_t>(totalCells) + 1);
   cellOf_.resize(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) {
-    const int c = cellIndexOf(spheres.centre.col(i).data());
-    cellOf_[i] = c;
-    ++cellStart_[c + 1];
-  }
-  for (int c = 0; c < totalCells; ++c) cellStart_[c + 1] += cellStart_[c];
   sorted_.resize(static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   packed_.resize(4, n);
-  fill_.assign(cellStart_.begin(), cellStart_.end() - 1);  // reuses capacity: no allocation in steady state
-  for (Index i = 0; i < n; ++i) {
-    const Index slot = fill_[cellOf_[i]]++;
-    sorted_[slot] = i;
-    slotOf_[i] = slot;
-    packed_.col(slot) << spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i];
-  }
+  // Counting sort by cell (stable: ascending particle index within a cell), threaded over contiguous
+  // parts of the particles with one histogram each (parallel.hpp): the same slots for any thread count.
+  const int threads = threads_;
+  const std::size_t parts = parallel::chunkCount(threads, static_cast<std::size_t>(n));
+  parallel::forEachRange(threads, static_cast<std::size_t>(n), parts, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) cellOf_[i] = cellIndexOf(spheres.centre.col(static_cast<Index>(i)).data());
+  });
+  parallel::stableCountingSort(
+      threads, static_cast<std::size_t>(n), static_cast<std::size_t>(totalCells), 0,
+      [&](std::size_t i) { return cellOf_[i]; }, cellStart_.data(), fill_,
+      [&](std::size_t i, Index slot) {
+        sorted_[static_cast<std::size_t>(slot)] = static_cast<Index>(i);
+        slotOf_[i] = slot;
+      });
+  // The packed copy in slot order, read sequentially by the search.
+  parallel::forEachRange(threads, static_cast<std::size_t>(n), parts, [&](std::size_t b, std::size_t e) {
+    for (std::size_t slot = b; slot < e; ++slot) {
+      const Index i = sorted_[slot];
+      double* p = packed_.data() + 4 * slot;
+      p[0] = spheres.centre(0, i);
+      p[1] = spheres.centre(1, i);
+      p[2] = spheres.centre(2, i);
+      p[3] = spheres.radius[i];
+    }
+  });
 }
 
 void LinkedCell::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
@@ -117,8 +131,7 @@ inline void emit(std::vector<Pair>& out, Index a, Index b) { out.push_back(a < b
 }  // namespace
 
 template <bool kCount>
-void LinkedCell::pairsImpl(std::vector<Pair>& out) const {
-  const int totalCells = cells_[0] * cells_[1] * cells_[2];
+void LinkedCell::pairsImpl(int cellBegin, int cellEnd, std::vector<Pair>& out) const {
   const double* p = packed_.data();
   std::uint64_t tests = 0, accesses = 0;
 
@@ -135,7 +148,7 @@ void LinkedCell::pairsImpl(std::vector<Pair>& out) const {
   };
 
   std::array<int, 27> block{};
-  for (int c = 0; c < totalCells; ++c) {
+  for (int c = cellBegin; c < cellEnd; ++c) {
     const Index a0 = cellStart_[c], a1 = cellStart_[c + 1];
     if constexpr (kCount) ++accesses;
     if (a0 == a1) continue;
@@ -187,13 +200,41 @@ void LinkedCell::pairsImpl(std::vector<Pair>& out) const {
   }
 }
 
-void LinkedCell::findPairs(const SphereView&, std::vector<Pair>& out) const {
+void LinkedCell::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {
   out.clear();
+  const int totalCells = cells_[0] * cells_[1] * cells_[2];
   if (counting_) {
-    pairsImpl<true>(out);
+    pairsImpl<true>(0, totalCells, out);
+  } else if (parallel::chunkCount(threads_, sorted_.size()) == 1) {
+    pairsImpl<false>(0, totalCells, out);
   } else {
-    pairsImpl<false>(out);
+    findPairChunks(spheres, chunks_);
+    chunks_.concatenate(out);
   }
+}
+
+void LinkedCell::findPairChunks(const SphereView& spheres, PairChunks& out) const {
+  const std::size_t count = counting_ ? 1 : parallel::chunkCount(threads_, sorted_.size());
+  if (count == 1) {
+    out.reset(1);
+    findPairs(spheres, out[0]);
+    return;
+  }
+  // Chunks of consecutive cells holding about equal numbers of spheres, searched in parallel: each pair
+  // lands in the chunk of the cell the serial loop finds it from, so the chunks in order are its output.
+  const int totalCells = cells_[0] * cells_[1] * cells_[2];
+  const Index n = static_cast<Index>(sorted_.size());
+  out.reset(count);
+  parallel::forEachTask(threads_, count, [&](std::size_t k) {
+    auto firstCell = [&](std::size_t part) {
+      if (part == count) return totalCells;
+      const Index slot = static_cast<Index>(static_cast<std::size_t>(n) * part / count);
+      // First cell whose range starts at or after `slot`.
+      return static_cast<int>(std::lower_bound(cellStart_.begin(), cellStart_.end() - 1, slot) - cellStart_.begin());
+    };
+    pairsImpl<false>(firstCell(k), firstCell(k + 1), out[k]);
+    out.keepHeadroom(k);
+  });
 }
 
 void LinkedCell::findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const {
@@ -217,8 +258,8 @@ void LinkedCell::findNeighbours(const SphereView& spheres, Index i, double reach
 }
 
 std::size_t LinkedCell::memoryBytes() const {
-  return cellStart_.capacity() * sizeof(Index) + sorted_.capacity() * sizeof(Index) +
-         slotOf_.capacity() * sizeof(Index) + cellOf_.capacity() * sizeof(int) +
+  return cellStart_.capacity() * sizeof(Index) + fill_.capacity() * sizeof(Index) + chunks_.memoryBytes() +
+         sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) + cellOf_.capacity() * sizeof(int) +
          static_cast<std::size_t>(packed_.size()) * sizeof(double);
 }
 

@@ -9,10 +9,14 @@
 // N or the cell count grows: steady-state rebuilds reuse every buffer (checked with a counting
 // operator new: 0 allocations over 10 build + findPairs calls of 2000 spheres).
 // Periodic axes with only two cells (the two neighbours alias) take a de-duplicating path.
+// Threads (setThreads): the counting sort runs over contiguous parts of the spheres with one histogram
+// per part, and the search over chunks of consecutive cells (pair_chunks.hpp); slots, pairs and their
+// order are those of one thread.
 #include <array>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "broadphase/pair_chunks.hpp"
 
 namespace polydem::broadphase {
 
@@ -21,6 +25,8 @@ class LinkedCell final : public BroadPhase {
   std::string_view name() const override { return "linked-cell"; }
   Capabilities capabilities() const override { return {.complete = true, .incremental = true}; }
   void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
+  /// Threaded (setThreads): chunks of consecutive cells holding about equal numbers of spheres.
+  void findPairChunks(const SphereView& spheres, PairChunks& out) const override;
   void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;
   std::size_t memoryBytes() const override;
   std::string describe() const override;
@@ -42,8 +48,9 @@ class LinkedCell final : public BroadPhase {
   std::array<int, 3> cellCoordinates(int cell) const;
   /// Distinct cells in the 3x3x3 block around `cell` (wrapped or clipped), ascending.
   int neighbourhood(int cell, std::array<int, 27>& out) const;
+  /// Pairs found from the cells [cellBegin, cellEnd) (own cell and forward half shell).
   template <bool kCount>
-  void pairsImpl(std::vector<Pair>& out) const;
+  void pairsImpl(int cellBegin, int cellEnd, std::vector<Pair>& out) const;
 
   double minimumCellSize_ = 0.0;
   std::array<int, 3> cells_{1, 1, 1};
@@ -55,7 +62,8 @@ class LinkedCell final : public BroadPhase {
   std::vector<Index> sorted_;                  // particle index per slot
   std::vector<Index> slotOf_;                  // slot per particle
   std::vector<int> cellOf_;                    // cell per particle
-  std::vector<Index> fill_;                    // build scratch: next free slot per cell
+  std::vector<Index> fill_;                    // build scratch: next free slot per cell (per part when threaded)
+  mutable PairChunks chunks_;                  // findPairs() with threads: the chunks before concatenation
   Eigen::Matrix4Xd packed_;                    // x, y, z, r per slot
 };
 

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 #include <utility>
 
 #include "broadphase/registry.hpp"
@@ -234,7 +235,17 @@ void DemSimulation::validateSettings() {
                     "use run.threads = 1",
                     settings_.threads));
   }
+  settings_.resort.validate();
   verlet_.setBlocks(settings_.threads);
+  verlet_.setThreads(settings_.threads);
+}
+
+void ResortRule::validate() const {
+  if (interval < 0) throw ConfigError(fmt::format("resort interval must be >= 0 steps (0 = never), got {}", interval));
+  if (!(threshold >= 0.0 && std::isfinite(threshold))) {
+    throw ConfigError(fmt::format("resort threshold must be a finite number >= 0, got {}", threshold));
+  }
+  if (cellParticles < 1) throw ConfigError(fmt::format("resort cell particles must be >= 1, got {}", cellParticles));
 }
 
 void DemSimulation::selectKernel() {
@@ -412,7 +423,7 @@ contact::ForceContext DemSimulation::context() { return std::as_const(*this).con
 
 void DemSimulation::computeForces() { kernel_.run(model_, context()); }
 
-void DemSimulation::rebuild() {
+void DemSimulation::wrapPositions() {
   Eigen::Matrix3Xd& x = particles_.position();
   const Index n = particles_.count();
   for (Index i = 0; i < n; ++i) {
@@ -435,6 +446,89 @@ void DemSimulation::rebuild() {
       }
     }
   }
+}
+
+namespace {
+
+/// Coarse Morton cell of centre x (wrapped like wrapPositions() on periodic axes) with `bits` bits per
+/// axis: the leading bits of the key integrators::mortonOrder() sorts by, so a sorted store has every
+/// particle inside its cell's slot range.
+std::uint64_t coarseCell(const double* x, const Box& box, int bits) {
+  double w[3];
+  for (int k = 0; k < 3; ++k) {
+    w[k] = x[k];
+    const double L = box.length(k);
+    if (box.periodic(k) && (w[k] < 0.0 || w[k] >= L)) {
+      w[k] -= L * std::floor(w[k] / L);
+      if (w[k] >= L) w[k] = 0.0;
+    }
+  }
+  return mortonKey(w, box, 10) >> (3 * (10 - bits));
+}
+
+/// a[k] = a[order[k]] for every particle, `width` values per particle, in the array's own memory.
+template <class T>
+void permuteInPlace(T* a, int width, std::span<const Index> order, std::vector<T>& scratch) {
+  const std::size_t w = static_cast<std::size_t>(width);
+  scratch.resize(order.size() * w);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    std::copy_n(a + static_cast<std::size_t>(order[k]) * w, w, scratch.data() + k * w);
+  }
+  std::copy(scratch.begin(), scratch.end(), a);
+}
+
+}  // namespace
+
+double DemSimulation::orderDecay() const {
+  const Index n = particles_.count();
+  int bits = 0;
+  while (bits < 10 && std::ldexp(static_cast<double>(settings_.resort.cellParticles), 3 * (bits + 1)) <= n) ++bits;
+  if (bits == 0) return 0.0;
+  const std::size_t cells = std::size_t{1} << (3 * bits);
+  decayCells_.assign(cells + 1, 0);
+  const Eigen::Matrix3Xd& x = particles_.position();
+  for (Index i = 0; i < n; ++i) ++decayCells_[coarseCell(x.col(i).data(), box_, bits) + 1];
+  for (std::size_t c = 0; c < cells; ++c) decayCells_[c + 1] += decayCells_[c];
+  Index misplaced = 0;
+  for (Index i = 0; i < n; ++i) {
+    const std::uint64_t c = coarseCell(x.col(i).data(), box_, bits);
+    misplaced += (i < decayCells_[c] || i >= decayCells_[c + 1]) ? 1 : 0;
+  }
+  return static_cast<double>(misplaced) / static_cast<double>(n);
+}
+
+void DemSimulation::resortParticles() {
+  wrapPositions();
+  const std::vector<Index> order = mortonOrder(particles_.position(), box_);
+  // In place: the Python module hands out views of these arrays (python/simulation.cpp). The scratch
+  // buffers are allocated here, once per re-sort (at most once per resort.interval steps).
+  std::vector<double> scratch;
+  std::vector<Index> idScratch;
+  auto cols = [&](Eigen::Matrix3Xd& m) {
+    if (m.cols() == particles_.count()) permuteInPlace(m.data(), 3, order, scratch);
+  };
+  auto vec = [&](Eigen::VectorXd& v) {
+    if (v.size() == particles_.count()) permuteInPlace(v.data(), 1, order, scratch);
+  };
+  cols(particles_.position());
+  cols(particles_.velocity());
+  cols(particles_.force());
+  cols(velocityPredicted_);
+  vec(particles_.radius());
+  vec(particles_.inverseMass());
+  if (particles_.features().rotation) {
+    cols(particles_.angularVelocity());
+    cols(particles_.torque());
+    vec(particles_.inverseInertia());
+    cols(angularVelocityPredicted_);
+  }
+  permuteInPlace(particles_.id().data(), 1, order, idScratch);
+  ++resorts_;
+  rebuild();
+}
+
+void DemSimulation::rebuild() {
+  wrapPositions();
   try {
     verlet_.build(particles_.spheres(), box_);
   } catch (const ConfigError& e) {
@@ -461,7 +555,15 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     const Clock::time_point t0 = Clock::now();
     const double maxSq = openingKickAndDrift();
     const Clock::time_point t1 = Clock::now();
-    if (maxSq > limit * limit) rebuild();
+    // Re-sort at fixed steps when the order has decayed (a decision independent of the skin), else rebuild
+    // when some particle moved skin / 2.
+    const ResortRule& rule = settings_.resort;
+    if (settings_.spatialSort && rule.interval > 0 && (step_ + 1) % rule.interval == 0 &&
+        orderDecay() > rule.threshold) {
+      resortParticles();
+    } else if (maxSq > limit * limit) {
+      rebuild();
+    }
     const Clock::time_point t2 = Clock::now();
     computeForces();
     const Clock::time_point t3 = Clock::now();
@@ -568,6 +670,7 @@ std::size_t DemSimulation::memoryBytes() const {
   bytes += crossScratch_.capacity() * sizeof(double) + crossTouching_.capacity();
   bytes += verlet_.memoryBytes() + pairHistory_.memoryBytes() + wallHistory_.memoryBytes();
   bytes += (pairKeys_.capacity() + wallKeys_.capacity()) * sizeof(std::uint64_t);
+  bytes += decayCells_.capacity() * sizeof(Index);
   return bytes;
 }
 

@@ -39,6 +39,20 @@ struct StabilityLimits {
   void validate() const;
 };
 
+/// When DemSettings::resort re-sorts the particles during a run. The decay measure: with the box cut into
+/// 8^b Morton cells of at least `cellParticles` particles each on average (b <= 10; b = 0, i.e. never, below
+/// 8 cellParticles particles), the fraction of particles whose slot lies outside the range of slots their
+/// cell would hold in Morton order. 0 right after a sort; about 1 for a random order. A particle leaves its
+/// cell's range once it has moved out of its cell (cells of ~256 particles are ~6 spacings wide), so the
+/// default 0.3 re-sorts after typical displacements of about a particle spacing: a dense packing that only
+/// relaxes never re-sorts, a gas or a flow does.
+struct ResortRule {
+  std::int64_t interval = 500;  ///< steps between decay measurements (0 = never re-sort)
+  double threshold = 0.3;       ///< re-sort when orderDecay() exceeds this (>= 0)
+  Index cellParticles = 256;    ///< particles per coarse cell of the measure, on average (>= 1)
+  void validate() const;
+};
+
 /// Which velocity the dashpots (and viscous damping) see when forces are computed at x(t + dt).
 enum class DashpotVelocity {
   Predicted,  ///< v(t + dt/2) + dt/2 F(t)/m: second-order dissipation (the default)
@@ -55,11 +69,16 @@ struct DemSettings {
   double viscousDamping = 0.0;                                   ///< global damping rate gamma (1/s): F -= gamma m v
   DashpotVelocity dashpotVelocity = DashpotVelocity::Predicted;  ///< run.dashpot_velocity
   StabilityLimits stability;
-  bool spatialSort = true;     ///< reorder particles along a Morton curve once, for cache locality
+  bool spatialSort = true;     ///< reorder particles along a Morton curve at start (and see resort)
   bool generalKernel = false;  ///< force the most general kernel (comparisons); needs rotation arrays
-  /// OpenMP threads for the force loop and the kicks (>= 1). 1 runs the serial code; > 1 needs a
-  /// POLYDEM_WITH_OPENMP build and gives bit-identical results (see contact/force_loop.hpp). The
-  /// neighbour-list rebuild stays serial.
+  /// Re-sort during the run (with spatialSort): every `interval` steps the decay of the storage order is
+  /// measured (DemSimulation::orderDecay()), and above `threshold` the particles are put back in Morton
+  /// order and the neighbour list is rebuilt at that step. Decided from the step number and the state
+  /// alone, so the skin, the backend, the thread count and a resume never change when it happens.
+  ResortRule resort;
+  /// OpenMP threads for the force loop, the kicks and the neighbour-list rebuild (the backend's grid build
+  /// and pair search, the CSR list) (>= 1). 1 runs the serial code; > 1 needs a POLYDEM_WITH_OPENMP build
+  /// and gives bit-identical results (see contact/force_loop.hpp, broadphase/pair_chunks.hpp).
   int threads = 1;
   /// An explicit timeStep above t_c,min / 5 is refused (ConfigError naming run.dt) unless this is set
   /// (run.allow_unstable_dt): the same rule as run.dt_factor >= 5.
@@ -161,6 +180,12 @@ class DemSimulation {
   const contact::ContactHistory& wallHistory() const { return wallHistory_; }
   /// Rebuilds of the neighbour list (including the initial build).
   std::int64_t rebuilds() const { return verlet_.builds(); }
+  /// Re-sorts by DemSettings::resort in this object's lifetime (not part of the state: a resumed run counts
+  /// from 0; the initial sort is not counted).
+  std::int64_t resorts() const { return resorts_; }
+  /// Decay of the storage order, the measure of ResortRule (0 = Morton order at the coarse level, up to 1).
+  /// O(N + 8^b).
+  double orderDecay() const;
   const PhaseTimes& times() const { return times_; }
   /// Energies at the current step (velocities synchronised). O(N + P).
   Energies energies() const;
@@ -186,6 +211,11 @@ class DemSimulation {
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();
+  /// Wrap periodic coordinates into [0, L) and check walled ones (SimulationError naming the particle).
+  void wrapPositions();
+  /// The particles in Morton order of their (wrapped) centres, every per-particle array permuted in place
+  /// (the arrays keep their memory: views of them stay valid), then a rebuild.
+  void resortParticles();
   /// First half of a step: v += dt/2 F/m, x += dt v (and the predicted v, omega); returns the largest
   /// squared displacement since the last build.
   double openingKickAndDrift();
@@ -212,6 +242,8 @@ class DemSimulation {
   bool predict_ = false;  ///< dashpots or viscous damping present and Predicted: keep velocityPredicted_
   bool conservative_ = false;
   double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)
+  std::int64_t resorts_ = 0;
+  mutable std::vector<Index> decayCells_;  ///< orderDecay(): slot ranges of the coarse cells
   std::int64_t step_ = 0;
   double timeOrigin_ = 0.0;
   double initialEnergy_ = 0.0;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::integrators {
@@ -18,33 +19,80 @@ VerletList::VerletList(std::unique_ptr<broadphase::BroadPhase> backend, double s
   }
 }
 
+void VerletList::setThreads(int threads) {
+  if (threads < 1) throw ConfigError(fmt::format("run.threads must be >= 1, got {}", threads));
+  threads_ = threads;
+  backend_->setThreads(threads);
+}
+
+namespace {
+
+/// Sort the entries [begin, end) of one row (distinct values). Rows hold a handful of entries, where
+/// insertion sort beats std::sort; the rows of the few large spheres of a wide distribution hold hundreds.
+void sortRow(Index* begin, Index* end) {
+  if (end - begin > 48) {
+    std::sort(begin, end);
+    return;
+  }
+  for (Index* a = begin + 1; a < end; ++a) {
+    const Index value = *a;
+    Index* b = a;
+    while (b > begin && *(b - 1) > value) {
+      *b = *(b - 1);
+      --b;
+    }
+    *b = value;
+  }
+}
+
+}  // namespace
+
 void VerletList::build(const SphereView& spheres, const Box& box) {
   const Index n = spheres.count();
   backend_->build(spheres, box, skin_);
-  backend_->findPairs(spheres, pairs_);
+  backend_->findPairChunks(spheres, pairs_);
   ++builds_;
 
-  // CSR by i (counting sort, stable), then each short row sorted by j: canonical (i, j) order.
+  // CSR by i (a stable counting sort of the pairs), then each row sorted by j: canonical (i, j) order.
+  // Several threads: each owns a contiguous range of rows and scans every chunk for the pairs of its rows
+  // (no atomics; the pairs' cell order keeps the range test predictable), so the rows are filled in the
+  // serial order, and the pairs are read once per thread.
+  const std::size_t chunks = pairs_.size();
+  const int parts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n)) > 1
+                        ? broadphase::parallel::usable(threads_)
+                        : 1;
   list_.offset.assign(static_cast<std::size_t>(n) + 1, 0);
-  for (const broadphase::Pair& p : pairs_) ++list_.offset[static_cast<std::size_t>(p.i) + 1];
-  for (Index i = 0; i < n; ++i) list_.offset[i + 1] += list_.offset[i];
+  Index* offset = list_.offset.data();
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
+                                     [&](std::size_t lo, std::size_t hi) {
+                                       for (std::size_t k = 0; k < chunks; ++k) {
+                                         for (const broadphase::Pair& p : pairs_[k]) {
+                                           if (static_cast<std::size_t>(p.i) - lo < hi - lo) ++offset[p.i + 1];
+                                         }
+                                       }
+                                     });
+  for (Index i = 0; i < n; ++i) offset[i + 1] += offset[i];
   fill_.assign(list_.offset.begin(), list_.offset.end() - 1);
-  list_.neighbour.resize(pairs_.size());
-  for (const broadphase::Pair& p : pairs_) list_.neighbour[static_cast<std::size_t>(fill_[p.i]++)] = p.j;
-  for (Index i = 0; i < n; ++i) {
-    Index* begin = list_.neighbour.data() + list_.offset[i];
-    Index* end = list_.neighbour.data() + list_.offset[i + 1];
-    // Rows hold a handful of entries: insertion sort beats std::sort here.
-    for (Index* a = begin + 1; a < end; ++a) {
-      const Index value = *a;
-      Index* b = a;
-      while (b > begin && *(b - 1) > value) {
-        *b = *(b - 1);
-        --b;
-      }
-      *b = value;
-    }
-  }
+  list_.neighbour.resize(static_cast<std::size_t>(offset[n]));
+  Index* neighbour = list_.neighbour.data();
+  Index* fill = fill_.data();
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
+                                     [&](std::size_t lo, std::size_t hi) {
+                                       for (std::size_t k = 0; k < chunks; ++k) {
+                                         for (const broadphase::Pair& p : pairs_[k]) {
+                                           if (static_cast<std::size_t>(p.i) - lo < hi - lo) {
+                                             neighbour[fill[p.i]++] = p.j;
+                                           }
+                                         }
+                                       }
+                                     });
+  const std::size_t rowParts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n));
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), rowParts,
+                                     [&](std::size_t b, std::size_t e) {
+                                       for (std::size_t i = b; i < e; ++i) {
+                                         sortRow(neighbour + offset[i], neighbour + offset[i + 1]);
+                                       }
+                                     });
 
   // Wall candidates: particles within the skin of a non-periodic face.
   list_.wallParticle.clear();
@@ -75,11 +123,14 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
                       std::vector<std::uint64_t>& wallKeys) const {
   pairKeys.resize(list_.neighbour.size());
   const Index n = list_.particleCount();
-  for (Index i = 0; i < n; ++i) {
-    for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
-      pairKeys[static_cast<std::size_t>(c)] = contact::pairKey(ids[i], ids[list_.neighbour[c]]);
+  const std::size_t parts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n));
+  broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), parts, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+        pairKeys[static_cast<std::size_t>(c)] = contact::pairKey(ids[i], ids[list_.neighbour[c]]);
+      }
     }
-  }
+  });
   wallKeys.resize(list_.wallParticle.size());
   for (std::size_t c = 0; c < wallKeys.size(); ++c) {
     wallKeys[c] = contact::wallKey(ids[list_.wallParticle[c]], list_.wallFace[c]);
@@ -87,8 +138,7 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
 }
 
 std::size_t VerletList::memoryBytes() const {
-  return backend_->memoryBytes() + list_.memoryBytes() + pairs_.capacity() * sizeof(broadphase::Pair) +
-         fill_.capacity() * sizeof(Index) +
+  return backend_->memoryBytes() + list_.memoryBytes() + pairs_.memoryBytes() + fill_.capacity() * sizeof(Index) +
          static_cast<std::size_t>(reference_.size() + referenceRadius_.size()) * sizeof(double);
 }
 

@@ -7,12 +7,18 @@
 // The CSR rows are sorted (i, j) whatever order the backend reports, so the force loop sums in the
 // same order for every backend. Buffers only grow: steady-state rebuilds do not allocate (the
 // backend's own build may, depending on the backend).
+//
+// Threads (setThreads): the backend builds and searches in parallel (BroadPhase::setThreads) and hands
+// its pairs over in chunks (PairChunks, no concatenated copy); the rows are counted and filled by threads
+// that each own a contiguous range of rows, in the serial order, and sorted in parallel: the list is the
+// same for every thread count.
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "broadphase/pair_chunks.hpp"
 #include "contact/contact_list.hpp"
 #include "core/box.hpp"
 #include "core/particle_store.hpp"
@@ -31,6 +37,9 @@ class VerletList {
   /// Also split the list into `blocks` thread blocks (ContactList::buildBlocks) at every build, for the
   /// threaded force loop; 0 or 1 = none (the default). Takes effect at the next build.
   void setBlocks(int blocks) { blocks_ = blocks; }
+  /// OpenMP threads for the build (>= 1; ConfigError otherwise): the backend's and the CSR's. The list is
+  /// identical for every thread count. Takes effect at the next build.
+  void setThreads(int threads);
 
   /// Fill history keys for the current list from the particles' stored ids (pairKey / wallKey).
   void keys(std::span<const Index> ids, std::vector<std::uint64_t>& pairKeys,
@@ -56,10 +65,11 @@ class VerletList {
   double skin_;
   std::int64_t builds_ = 0;
   int blocks_ = 0;
+  int threads_ = 1;
   contact::ContactList list_;
   Eigen::Matrix3Xd reference_;
   Eigen::VectorXd referenceRadius_;
-  std::vector<broadphase::Pair> pairs_;
+  broadphase::PairChunks pairs_;
   std::vector<Index> fill_;
 };
 

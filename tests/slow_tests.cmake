@@ -8,7 +8,8 @@ foreach(test
     # Brute-force comparison at 20,000 spheres over every hand-set level count.
     HGridAgreement.UniformVolumeHandSetSizesMatchBruteForce
     # Counts heap allocations over a long DEM run (the sanitizers replace the allocator anyway).
-    TimeLoop.DoesNotAllocateOnceSized)
+    TimeLoop.DoesNotAllocateOnceSized
+    VerletList.ThreadedRebuildsDoNotAllocateOnceSized)
   if(NOT "${test}" STREQUAL "")
     set_tests_properties(${test} PROPERTIES LABELS slow)
   endif()

@@ -705,3 +705,34 @@ TEST(HGridMemory, SteadyStateRebuildsReuseBuffers) {
 
 }  // namespace
 }  // namespace polydem::broadphase
+
+namespace polydem::broadphase {
+namespace {
+
+TEST(HGridMemory, ThreadedRebuildsReuseBuffersAndKeepTheIndex) {
+  // Threads: per-part histograms, search tasks and pair chunks are sized at the first build and reused;
+  // the index itself is the serial one (validate() and the same pairs in the same order).
+  const test::Scene scene =
+      test::makeScene({.count = 9000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 9});
+  HGridTopDown serial;
+  std::vector<Pair> expected;
+  serial.build(scene.spheres(), scene.box, 0.1);
+  serial.findPairs(scene.spheres(), expected);
+  HGridTopDown td;
+  td.setThreads(3);
+  std::vector<Pair> pairs;
+  td.build(scene.spheres(), scene.box, 0.1);
+  td.findPairs(scene.spheres(), pairs);
+  EXPECT_NO_THROW(td.validate(scene.spheres()));
+  EXPECT_EQ(pairs, expected);
+  const std::size_t bytes = td.memoryBytes();
+  for (int k = 0; k < 3; ++k) {
+    td.build(scene.spheres(), scene.box, 0.1);
+    td.findPairs(scene.spheres(), pairs);
+  }
+  EXPECT_EQ(td.memoryBytes(), bytes);
+  EXPECT_EQ(pairs, expected);
+}
+
+}  // namespace
+}  // namespace polydem::broadphase

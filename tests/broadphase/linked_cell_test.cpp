@@ -75,3 +75,32 @@ TEST(LinkedCell, IncrementalUpdateKeepsStorageValid) {
 
 }  // namespace
 }  // namespace polydem::broadphase
+
+namespace polydem::broadphase {
+namespace {
+
+TEST(LinkedCell, ThreadedBuildGivesTheSerialIndex) {
+  // The per-part counting sort must place every sphere in the slot the serial sort gives it: same
+  // validate()d storage, same pairs in the same order, for several thread counts and rebuilds.
+  const test::Scene s =
+      test::makeScene({.count = 10000, .distribution = "bi", .sizeRatio = 3.0, .packing = 0.4, .seed = 21});
+  LinkedCell serial;
+  serial.build(s.spheres(), s.box, 0.1);
+  std::vector<Pair> expected;
+  serial.findPairs(s.spheres(), expected);
+  for (int threads : {2, 4, 7}) {
+    SCOPED_TRACE(threads);
+    LinkedCell lc;
+    lc.setThreads(threads);
+    for (int round = 0; round < 2; ++round) {
+      lc.build(s.spheres(), s.box, 0.1);
+      EXPECT_NO_THROW(lc.validate(s.spheres()));
+      std::vector<Pair> got;
+      lc.findPairs(s.spheres(), got);
+      EXPECT_EQ(got, expected);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace polydem::broadphase

@@ -6,8 +6,10 @@
 #include <random>
 
 #include "broadphase/brute_force.hpp"
+#include "broadphase/pair_chunks.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
+#include "polydem/config.hpp"
 #include "tests/support/scene.hpp"
 
 namespace polydem {
@@ -253,6 +255,142 @@ TEST_P(BackendProperty, RejectsBadInput) {
   s.radius[1] = 1.0;
   EXPECT_THROW(bp->build(s.spheres(), s.box, -0.1), ConfigError);
   EXPECT_NO_THROW(bp->build(s.spheres(), s.box, 0.1));
+}
+
+// Threads (BroadPhase::setThreads): the threaded grid builds and searches report the serial pairs in the
+// serial order, chunk by chunk, and brute force's pair set. The scenes are large enough (> 4096 spheres)
+// for the parallel counting sorts, the chunked searches and the parallel input scan to run.
+struct ThreadedCase {
+  test::SceneSpec spec;
+  double skinFactor;
+};
+
+std::vector<ThreadedCase> threadedCases() {
+  return {
+      {{.count = 6000, .distribution = "mono", .packing = 0.5, .periodic = true, .seed = 11}, 0.2},
+      {{.count = 6000,
+        .distribution = "uniform-volume",
+        .sizeRatio = 10.0,
+        .packing = 0.4,
+        .periodic = true,
+        .seed = 12},
+       0.1},
+      {{.count = 5000, .distribution = "bi", .sizeRatio = 8.0, .packing = 0.35, .periodic = false, .seed = 13}, 0.3},
+      {{.count = 5000,
+        .distribution = "uniform-volume",
+        .sizeRatio = 100.0,
+        .packing = 0.3,
+        .periodic = false,
+        .seed = 14},
+       0.1},
+  };
+}
+
+/// Brute force's pairs of threadedCases()[k], computed once per process.
+const std::vector<Pair>& brutePairs(std::size_t k) {
+  static std::vector<std::vector<Pair>> cache(threadedCases().size());
+  static std::vector<bool> done(threadedCases().size(), false);
+  if (!done[k]) {
+    const ThreadedCase c = threadedCases()[k];
+    const test::Scene scene = test::makeScene(c.spec);
+    cache[k] = run("brute", scene, c.skinFactor * scene.minRadius());
+    done[k] = true;
+  }
+  return cache[k];
+}
+
+TEST_P(BackendProperty, ThreadedBuildsFindTheSerialPairsInTheSerialOrder) {
+  const std::string backend = GetParam();
+  // Brute force is the reference below and has no threaded build: its O(N^2) runs would only cost time.
+  if (backend == "brute") GTEST_SKIP() << "the reference itself";
+  const std::vector<ThreadedCase> cases = threadedCases();
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    const test::Scene scene = test::makeScene(cases[k].spec);
+    const double skin = cases[k].skinFactor * scene.minRadius();
+    SCOPED_TRACE(::testing::Message() << cases[k].spec.distribution << " omega " << cases[k].spec.sizeRatio
+                                      << (cases[k].spec.periodic ? " periodic" : " walled"));
+    auto serial = broadphase::makeBroadPhase(backend);
+    serial->build(scene.spheres(), scene.box, skin);
+    std::vector<Pair> expected;
+    serial->findPairs(scene.spheres(), expected);
+    // Backends without a threaded build run serially whatever setThreads says: one check is enough.
+    const bool threadedBackend = backend == "linked-cell" || backend.starts_with("hgrid") || backend == "auto";
+    const std::vector<int> threadCounts = threadedBackend ? std::vector<int>{2, 3, 8} : std::vector<int>{3};
+    for (int threads : threadCounts) {
+      SCOPED_TRACE(::testing::Message() << threads << " threads");
+      auto bp = broadphase::makeBroadPhase(backend);
+      bp->setThreads(threads);
+      EXPECT_EQ(bp->threads(), threads);
+      bp->build(scene.spheres(), scene.box, skin);
+      std::vector<Pair> got;
+      bp->findPairs(scene.spheres(), got);
+      EXPECT_EQ(got, expected);  // same pairs in the same (backend) order
+      broadphase::PairChunks chunks;
+      bp->findPairChunks(scene.spheres(), chunks);
+      std::vector<Pair> joined;
+      chunks.concatenate(joined);
+      EXPECT_EQ(joined, expected);
+      if (!threadedBackend) continue;
+      if (POLYDEM_WITH_OPENMP) {
+        EXPECT_GT(chunks.size(), 1u) << "a threaded backend should search in chunks here";
+      }
+      bp->build(scene.spheres(), scene.box, skin);  // a rebuild reuses the buffers: same answer
+      bp->findPairs(scene.spheres(), got);
+      EXPECT_EQ(got, expected);
+    }
+    broadphase::sortPairs(expected);
+    EXPECT_EQ(expected, brutePairs(k));
+  }
+}
+
+TEST_P(BackendProperty, ThreadedBuildRejectsBadInputLikeTheSerialOne) {
+  const std::string backend = GetParam();
+  test::Scene scene =
+      test::makeScene({.count = 5000, .distribution = "mono", .packing = 0.3, .periodic = true, .seed = 15});
+  scene.radius[4321] = -1.0;
+  scene.centre(0, 2222) = std::nan("");  // the first bad particle is named, whichever thread finds one
+  std::string serialMessage, threadedMessage;
+  auto serial = broadphase::makeBroadPhase(backend);
+  try {
+    serial->build(scene.spheres(), scene.box, 0.1);
+  } catch (const ConfigError& e) {
+    serialMessage = e.what();
+  }
+  auto bp = broadphase::makeBroadPhase(backend);
+  bp->setThreads(3);
+  try {
+    bp->build(scene.spheres(), scene.box, 0.1);
+  } catch (const ConfigError& e) {
+    threadedMessage = e.what();
+  }
+  EXPECT_NE(serialMessage.find("particle 2222"), std::string::npos) << serialMessage;
+  EXPECT_EQ(threadedMessage, serialMessage);
+  EXPECT_THROW(bp->setThreads(0), ConfigError);
+  EXPECT_THROW(bp->setThreads(-2), ConfigError);
+}
+
+TEST_P(BackendProperty, ThreadedBuildThenUpdateMatchesBruteForce) {
+  // Event-driven use: a threaded build followed by serial update()s of moved spheres.
+  const std::string backend = GetParam();
+  test::Scene scene =
+      test::makeScene({.count = 5000, .distribution = "bi", .sizeRatio = 4.0, .packing = 0.3, .seed = 16});
+  const double skin = 0.2;
+  auto bp = broadphase::makeBroadPhase(backend);
+  bp->setThreads(2);
+  bp->build(scene.spheres(), scene.box, skin);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> step(-0.3, 0.3);
+  std::vector<Index> moved;
+  for (Index i = 0; i < scene.spheres().count(); i += 9) {
+    for (int k = 0; k < 3; ++k) scene.centre(k, i) += step(rng);
+    scene.centre.col(i) = scene.box.wrap(scene.centre.col(i));
+    moved.push_back(i);
+  }
+  bp->update(scene.spheres(), moved);
+  std::vector<Pair> got;
+  bp->findPairs(scene.spheres(), got);
+  broadphase::sortPairs(got);
+  EXPECT_EQ(got, run("linked-cell", scene, skin));
 }
 
 INSTANTIATE_TEST_SUITE_P(AllBackends, BackendProperty, ::testing::ValuesIn(allBackends()),

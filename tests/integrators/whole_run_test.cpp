@@ -241,6 +241,174 @@ TEST(SameTrajectory, ThreadsNeedAnOpenMPBuild) {
 }
 #endif
 
+/// A gas of `count` spheres (radii 1 and 2.5, so that HGrids have two levels), hot enough for frequent
+/// rebuilds: large enough (> 4096) for the threaded grid builds, pair searches and CSR fill to run.
+DemSimulation largeGas(Index count, const std::string& backend, int threads, bool friction) {
+  Box box;
+  const Boundary b = friction ? Boundary::Wall : Boundary::Periodic;
+  ParticleStore p = test::latticeGas(alternating(count, 1.0, 2.5), 0.3, box, 21, friction, {b, b, b});
+  DemSettings settings;
+  settings.contact = linear(0.7, friction ? 0.4 : 0.0);
+  settings.broadPhase = backend;
+  settings.skin = 0.05;
+  settings.threads = threads;
+  settings.stability.checkInterval = 40;
+  assignImpactVelocities(ContactModel(settings.contact), p, 0.05, 4);
+  return DemSimulation(std::move(p), box, settings);
+}
+
+#if POLYDEM_WITH_OPENMP
+TEST(SameTrajectory, ThreadedNeighbourListRebuildsDoNotChangeTheTrajectory) {
+  // 5000 spheres: the broad phase's counting sorts and chunked pair search, and the CSR fill with atomic
+  // counters, run on several threads at every rebuild, for the grid backends and auto.
+  DemSimulation reference = largeGas(5000, "linked-cell", 1, false);
+  reference.advance(80);
+  EXPECT_GT(reference.rebuilds(), 4);
+  EXPECT_GT(reference.contactStats().contacts, 10u);
+  for (const auto& [backend, threads] : {std::pair{"linked-cell", 2}, std::pair{"linked-cell", 3},
+                                         std::pair{"hgrid-bu", 3}, std::pair{"hgrid-td", 2}, std::pair{"auto", 3}}) {
+    SCOPED_TRACE(::testing::Message() << backend << ", " << threads << " threads");
+    DemSimulation sim = largeGas(5000, backend, threads, false);
+    sim.advance(80);
+    EXPECT_EQ(sim.rebuilds(), reference.rebuilds());
+    EXPECT_TRUE(sim.particles().position() == reference.particles().position());
+    EXPECT_TRUE(sim.particles().velocity() == reference.particles().velocity());
+  }
+  // Friction, rotation and walls (histories remapped after threaded rebuilds).
+  DemSimulation walled = largeGas(5000, "linked-cell", 1, true);
+  DemSimulation walledThreaded = largeGas(5000, "hgrid-bu", 3, true);
+  walled.advance(80);
+  walledThreaded.advance(80);
+  EXPECT_GT(walled.pairHistory().activeCount(), 0u);
+  EXPECT_GT(walled.contactStats().wallContacts, 0u);
+  EXPECT_TRUE(walledThreaded.particles().position() == walled.particles().position());
+  EXPECT_TRUE(walledThreaded.particles().angularVelocity() == walled.particles().angularVelocity());
+}
+
+TEST(VerletList, ThreadedBuildGivesTheSameListForEveryBackend) {
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 6000; ++i) radii.push_back(1.0 + 3.0 * ((i * 13) % 17) / 16.0);
+  const ParticleStore p =
+      test::latticeGas(radii, 0.3, box, 8, false, {Boundary::Periodic, Boundary::Wall, Boundary::Periodic});
+  VerletList serial(broadphase::makeBroadPhase("linked-cell"), 3.0);
+  serial.build(p.spheres(), box);
+  ASSERT_GT(serial.list().pairCount(), 5000u);
+  ASSERT_GT(serial.list().wallCount(), 10u);
+  for (const std::string& name : broadphase::backendNames()) {
+    if (!broadphase::makeBroadPhase(name)->capabilities().complete || name == "brute") continue;
+    for (int threads : {2, 5}) {
+      SCOPED_TRACE(::testing::Message() << name << ", " << threads << " threads");
+      VerletList list(broadphase::makeBroadPhase(name), 3.0);
+      list.setThreads(threads);
+      list.build(p.spheres(), box);
+      EXPECT_EQ(list.list().offset, serial.list().offset);
+      EXPECT_EQ(list.list().neighbour, serial.list().neighbour);
+      EXPECT_EQ(list.list().wallParticle, serial.list().wallParticle);
+      EXPECT_EQ(list.list().wallFace, serial.list().wallFace);
+    }
+  }
+  VerletList list(broadphase::makeBroadPhase("linked-cell"), 3.0);
+  EXPECT_THROW(list.setThreads(0), ConfigError);
+}
+#endif
+
+/// A hot frictional gas in a walled box (no periodic wrap, so thin and thick skins stay bit-identical) whose
+/// storage order decays within a few tens of steps: coarse cells of 8 particles, measured every 25 steps.
+DemSimulation driftingGas(const std::string& backend, double skin, ResortRule resort, int threads = 1,
+                          bool spatialSort = true) {
+  Box box;
+  std::vector<double> radii;
+  for (int i = 0; i < 1000; ++i) radii.push_back(1.0 + 0.5 * ((i * 37) % 101) / 100.0);
+  ParticleStore p = test::latticeGas(radii, 0.25, box, 31, true, {Boundary::Wall, Boundary::Wall, Boundary::Wall});
+  DemSettings settings;
+  settings.contact = linear(0.8, 0.3);
+  settings.broadPhase = backend;
+  settings.skin = skin;
+  settings.resort = resort;
+  settings.threads = threads;
+  settings.spatialSort = spatialSort;
+  settings.stability.checkInterval = 50;
+  settings.stability.maxOverlapFraction = 0.5;  // hot: Gaussian tails meet harder than the 8% rule
+  assignImpactVelocities(ContactModel(settings.contact), p, 0.08, 5);
+  return DemSimulation(std::move(p), box, settings);
+}
+
+constexpr ResortRule kEager{.interval = 25, .threshold = 0.05, .cellParticles = 8};
+
+TEST(Resort, DecayedOrderIsRestoredAtFixedStepsWhateverTheSkinBackendOrThreads) {
+  DemSimulation thin = driftingGas("linked-cell", 0.02, kEager);
+  EXPECT_EQ(thin.orderDecay(), 0.0) << "the start is Morton-sorted";
+  const double* positions = thin.particles().position().data();
+  thin.advance(400);
+  EXPECT_GT(thin.resorts(), 2);
+  EXPECT_LE(thin.orderDecay(), kEager.threshold);  // step 400 is a measuring step
+  EXPECT_EQ(thin.particles().position().data(), positions) << "re-sorting permutes in place";
+  EXPECT_GT(thin.pairHistory().activeCount(), 0u);
+
+  // The decision depends on the step and the state only: a thick skin (fewer rebuilds), another backend
+  // and other thread counts re-sort at the same steps and give the same trajectory bit for bit.
+  std::vector<std::pair<std::string, DemSimulation>> others;
+  others.emplace_back("thick skin", driftingGas("linked-cell", 0.5, kEager));
+  others.emplace_back("brute", driftingGas("brute", 0.02, kEager));
+  others.emplace_back("hgrid-bu", driftingGas("hgrid-bu", 0.1, kEager));
+#if POLYDEM_WITH_OPENMP
+  others.emplace_back("3 threads", driftingGas("linked-cell", 0.02, kEager, 3));
+#endif
+  for (auto& [label, sim] : others) {
+    SCOPED_TRACE(label);
+    sim.advance(400);
+    EXPECT_EQ(sim.resorts(), thin.resorts());
+    EXPECT_TRUE(sim.particles().id() == thin.particles().id());
+    EXPECT_TRUE(sim.particles().position() == thin.particles().position());
+    EXPECT_TRUE(sim.particles().velocity() == thin.particles().velocity());
+    EXPECT_TRUE(sim.particles().angularVelocity() == thin.particles().angularVelocity());
+  }
+  EXPECT_GT(thin.rebuilds(), others[0].second.rebuilds());
+
+  // Without re-sorting the order decays. By id, the run agrees with the re-sorted one to round-off while
+  // the hot gas has not yet amplified the changed rounding (any reordering changes the summation order).
+  const ResortRule never{.interval = 0, .cellParticles = kEager.cellParticles};
+  DemSimulation kept = driftingGas("linked-cell", 0.02, never);
+  kept.advance(400);
+  EXPECT_EQ(kept.resorts(), 0);
+  EXPECT_GT(kept.orderDecay(), 3.0 * kEager.threshold);
+  DemSimulation early = driftingGas("linked-cell", 0.02, kEager);
+  DemSimulation earlyKept = driftingGas("linked-cell", 0.02, never);
+  early.advance(60);
+  earlyKept.advance(60);
+  ASSERT_GT(early.resorts(), 0);
+  const Eigen::Matrix3Xd a = test::positionsById(early.particles());
+  const Eigen::Matrix3Xd b = test::positionsById(earlyKept.particles());
+  EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-9 * early.box().length(0));
+
+  // spatialSort = false keeps the given order: never re-sorted.
+  DemSimulation unsorted = driftingGas("linked-cell", 0.02, kEager, 1, false);
+  unsorted.advance(100);
+  EXPECT_EQ(unsorted.resorts(), 0);
+}
+
+TEST(Resort, ResumedRunReSortsLikeTheUninterruptedOne) {
+  DemSimulation straight = driftingGas("linked-cell", 0.1, kEager);
+  DemSimulation first = driftingGas("linked-cell", 0.1, kEager);
+  straight.advance(400);
+  first.advance(187);
+  ASSERT_GT(first.resorts(), 0);
+  DemSimulation resumed = DemSimulation::restore(first.state(), first.settings());
+  resumed.advance(213);
+  EXPECT_EQ(first.resorts() + resumed.resorts(), straight.resorts());
+  EXPECT_TRUE(resumed.particles().id() == straight.particles().id());
+  EXPECT_TRUE(resumed.particles().position() == straight.particles().position());
+  EXPECT_TRUE(resumed.particles().angularVelocity() == straight.particles().angularVelocity());
+}
+
+TEST(Resort, BadRulesAreRefused) {
+  for (const ResortRule& bad : {ResortRule{.interval = -1}, ResortRule{.threshold = -0.1},
+                                ResortRule{.threshold = std::nan("")}, ResortRule{.cellParticles = 0}}) {
+    EXPECT_THROW(driftingGas("linked-cell", 0.1, bad), ConfigError);
+  }
+}
+
 TEST(SameTrajectory, SkinChangesRebuildsButNotTheTrajectory) {
   // Forces are summed over the contacts of each canonical CSR row: candidates that are not in contact
   // add nothing, so a thin skin (many rebuilds, history remapped each time) and a thick one (few) give
