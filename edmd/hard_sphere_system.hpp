@@ -19,7 +19,9 @@
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
 //   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp, O(1) moves, the broad
 //   phase's pair predicate), so the work per event does not depend on the size ratio. The shared broad
-//   phase builds the lists at global rebuilds (build() + findPairs(); its update() is not used).
+//   phase builds the first lists (build() + findPairs(); its update() is not used); later global rebuilds
+//   query the grid of neighbourhoods for every sphere (the HGrid's level optimiser made each build cost
+//   as much as ~10^4-10^5 collisions on the widest distributions).
 //   rho_i is fixed between global rebuilds ("epochs") so that an exit moves one neighbourhood in the grid;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
@@ -59,9 +61,10 @@
 namespace polydem::edmd {
 
 struct SystemOptions {
-  /// Broad phase that builds the neighbour lists at global rebuilds (registry name). The engine calls only
-  /// its build() and findPairs() (and, for the overlap check of the input, on the spheres themselves);
-  /// exits are answered by hood_grid.hpp, so the backend's update() is never used and need not be cheap.
+  /// Broad phase that builds the first neighbour lists (registry name). The engine calls only its build()
+  /// and findPairs() (and, for the overlap check of the input, on the spheres themselves); exits and later
+  /// global rebuilds are answered by hood_grid.hpp (the same predicate, so the same lists), so the
+  /// backend's update() is never used and need not be cheap.
   std::string broadPhase = "hgrid-td";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
