@@ -104,6 +104,9 @@ void HardSphereSystem::predict(Index i) {
     const double r0i = si.r0, clock = clock_, g = growth_;
     const std::size_t m = list.size();
     pairWork_ += static_cast<std::int64_t>(m);
+    ClassCounters& cc = classTotal_[static_cast<std::size_t>(hood_[ui].cls)];
+    ++cc.predictions;
+    cc.scans += static_cast<std::int64_t>(m);
     const Event* events = event_.data();
     double bestTime = best.time;
     Index bestPartner = -1;
@@ -208,6 +211,8 @@ void HardSphereSystem::collide(Index i, Index j) {
   window_.virial += dist * impulse;
   ++window_.collisions;
   ++total_.collisions;
+  ++classTotal_[static_cast<std::size_t>(hood_[static_cast<std::size_t>(i)].cls)].collisions;
+  ++classTotal_[static_cast<std::size_t>(hood_[static_cast<std::size_t>(j)].cls)].collisions;
   std::int64_t& ci = collisionsInRun_[static_cast<std::size_t>(i)];
   std::int64_t& cj = collisionsInRun_[static_cast<std::size_t>(j)];
   lastCollision_ = {std::min(external(i), external(j)), std::max(external(i), external(j)), time()};
@@ -310,6 +315,7 @@ void HardSphereSystem::process(Index i) {
       break;
     case EventKind::Exit:
       ++total_.exits;
+      ++classTotal_[static_cast<std::size_t>(hood_[ui].cls)].exits;
       advance(i);
       refreshNeighbourhood(i);
       break;

@@ -51,19 +51,34 @@ void HardSphereSystem::rebuildNeighbourhoods() {
   const Index n = count();
   if (n == 0) return;
   sortSpatially();
+  assignClasses();
   double rmin = kInfinity;
   for (const State& s : state_) rmin = std::min(rmin, radiusAt(s));
   nbCentre_.resize(3, n);
   nbRadius_.resize(n);
   if (options_.adaptiveSkin &&
       (total_.collisions - collisionsAtRebuild_) + (total_.exits - exitsAtRebuild_) >= std::int64_t{n}) {
-    const int trend = skinTrend();
-    if (trend > 0) skinFloor_ = std::min(skinFloor_ * 1.3, 1e3);
-    if (trend < 0) skinFloor_ = std::max(skinFloor_ / 1.15, options_.skinFloor);
+    if (classSkins()) {
+      // Decided from the statistics of the epoch that ends here, all classes at once. Growth starts from
+      // the floor at which the class's skins begin to move (classFloorMin), doubling when far off.
+      std::vector<int> trend(classFloor_.size());
+      for (std::size_t c = 0; c < classFloor_.size(); ++c) trend[c] = classTrend(c);
+      for (std::size_t c = 0; c < classFloor_.size(); ++c) {
+        double& f = classFloor_[c];
+        const double lowest = classFloorMin(c);
+        if (trend[c] > 0) f = std::min(std::max(f, lowest) * (trend[c] > 1 ? 2.0 : 1.3), std::max(1e3, lowest));
+        if (trend[c] < 0) f = std::max(f / 1.15, lowest);
+      }
+    } else {
+      const int trend = skinTrend();
+      if (trend > 0) skinFloor_ = std::min(skinFloor_ * 1.3, 1e3);
+      if (trend < 0) skinFloor_ = std::max(skinFloor_ / 1.15, options_.skinFloor);
+    }
   }
   collisionsAtRebuild_ = total_.collisions;
   exitsAtRebuild_ = total_.exits;
   pairsAtRebuild_ = pairWork_;
+  classAtRebuild_ = classTotal_;
   const double mu1 = options_.neighbourhoodScale - 1.0;
   const double floor = skinFloor_ * rmin;
   // The broad phase needs periodic edges of at least 4 neighbourhood radii.
@@ -83,25 +98,37 @@ void HardSphereSystem::rebuildNeighbourhoods() {
     const State& s = state_[static_cast<std::size_t>(i)];
     Hood& h = hood_[static_cast<std::size_t>(i)];
     const double r = radiusAt(s);
-    const double skin = std::max(std::min(r, options_.skinCap * rmin), floor * std::pow(rmin / r, 1.5));
+    double skin;
+    if (classSkins()) {
+      const std::size_t c = static_cast<std::size_t>(h.cls);
+      const double lower = rmin * std::ldexp(1.0, static_cast<int>(c));  // the class's smallest radius
+      skin = std::max(std::min(r, options_.skinCap * rmin), classFloor_[c] * rmin * std::pow(lower / r, 1.5));
+    } else {
+      skin = std::max(std::min(r, options_.skinCap * rmin), floor * std::pow(rmin / r, 1.5));
+    }
     h.skin = std::min(mu1 * skin, skinLimit);
     h.radius = r + h.skin;
     for (int k = 0; k < 3; ++k) h.centre[k] = s.x[k];
     nbRadius_[i] = h.radius;
     nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
   }
-  const SphereView view{nbCentre_, nbRadius_};
-  try {
-    broad_->build(view, box_, 0.0);
-  } catch (const ConfigError& e) {
-    if (total_.rebuilds == 0) throw;
-    throw SimulationError(fmt::format(
-        "rebuilding the neighbour lists at t = {}: {} (the spheres have grown too large for this box: use more "
-        "particles)",
-        time(), e.what()));
-  }
-  broad_->findPairs(view, pairScratch_);
   hoodGrid_.build(box_, nbCentre_, nbRadius_);
+  if (total_.rebuilds == 0) {
+    // The first lists come from the shared broad phase; later rebuilds query the exit index, whose
+    // predicate is the broad phase's (the same sorted lists, so the same trajectory), because the HGrid
+    // re-optimises its levels at every build: on uniform radius omega = 100 (N = 2000) one build cost as
+    // much as 60,000 collisions' worth of instructions (issue 24 profile, docs/benchmarks/edmd/).
+    const SphereView view{nbCentre_, nbRadius_};
+    broad_->build(view, box_, 0.0);
+    broad_->findPairs(view, pairScratch_);
+  } else {
+    pairScratch_.clear();
+    for (Index i = 0; i < n; ++i) {
+      hoodGrid_.overlapping(i, scratch_);
+      for (Index j : scratch_)
+        if (j > i) pairScratch_.push_back({i, j});
+    }
+  }
   for (Hood& h : hood_) h.size = 0;
   for (const broadphase::Pair& p : pairScratch_) {
     ++hood_[static_cast<std::size_t>(p.i)].size;
@@ -123,7 +150,54 @@ void HardSphereSystem::rebuildNeighbourhoods() {
   }
   // Sorted lists: the trajectory does not depend on the backend's pair order.
   for (const Hood& h : hood_) std::sort(nbData_.begin() + h.begin, nbData_.begin() + h.begin + h.size);
+  countClassEntries();
   ++total_.rebuilds;
+}
+
+void HardSphereSystem::assignClasses() {
+  // Class c = floor(log2(O_i / O_min)) from the masses (O^3 up to a common factor), which never change.
+  // Without class skins the classes only sort the statistics (skinClasses()).
+  const Index n = count();
+  const bool split = sizeRatio_ >= 2.0 && n > 0;
+  const double lightest = n > 0 ? mass_.minCoeff() : 1.0;
+  Index top = 0;
+  for (Index i = 0; i < n; ++i) {
+    Index c = 0;
+    if (split) {
+      const double level = std::floor(std::log2(mass_[i] / lightest) / 3.0);
+      c = static_cast<Index>(std::clamp(level, 0.0, 63.0));
+    }
+    hood_[static_cast<std::size_t>(i)].cls = c;
+    top = std::max(top, c);
+  }
+  const std::size_t classes = static_cast<std::size_t>(top) + 1;
+  if (classCount_.size() != classes) {
+    classFloor_.resize(classes);
+    for (std::size_t c = 0; c < classes; ++c) classFloor_[c] = classFloorMin(c);
+    classTotal_.assign(classes, ClassCounters{});
+    classAtRebuild_.assign(classes, ClassCounters{});
+    classEntries_.assign(classes * classes, 0);
+  }
+  classCount_.assign(classes, 0);
+  for (const Hood& h : hood_) ++classCount_[static_cast<std::size_t>(h.cls)];
+}
+
+void HardSphereSystem::countClassEntries() {
+  std::fill(classEntries_.begin(), classEntries_.end(), 0);
+  if (!classSkins()) return;
+  const std::size_t classes = classCount_.size();
+  for (Index i = 0; i < count(); ++i) {
+    const std::size_t row = static_cast<std::size_t>(hood_[static_cast<std::size_t>(i)].cls) * classes;
+    for (Index j : neighboursOf(i))
+      ++classEntries_[row + static_cast<std::size_t>(hood_[static_cast<std::size_t>(j)].cls)];
+  }
+}
+
+double HardSphereSystem::classFloorMin(std::size_t c) const {
+  // Below min(2^c, kappa) the floor does not reach the class's skins (skin_i >= min(O_i, kappa O_min)),
+  // and options_.skinFloor 2^(-3c/2) is the single-floor rule's floor: the larger of the two.
+  const double reach = std::min(std::ldexp(1.0, static_cast<int>(c)), options_.skinCap);
+  return std::max(options_.skinFloor * std::pow(2.0, -1.5 * static_cast<double>(c)), reach);
 }
 
 void HardSphereSystem::relocateList(Index i, Index capacity) {
@@ -170,9 +244,15 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
     restart();  // growth has used half of the room: a new epoch with larger neighbourhoods
     return;
   }
-  if (options_.adaptiveSkin && total_.exits - exitsAtRebuild_ > 2 * std::int64_t{count()} && skinTrend() > 0) {
-    restart();  // skins too thin for how far the spheres fly: rebuild with a larger skin floor
-    return;
+  if (options_.adaptiveSkin && total_.exits - exitsAtRebuild_ > 2 * std::int64_t{count()}) {
+    // Skins too thin for how far the spheres fly: rebuild with a larger skin floor. The class rule is
+    // O(classes^2), so it is asked every 256th exit only.
+    const bool thin =
+        classSkins() ? (total_.exits - exitsAtRebuild_) % 256 == 0 && classesWantRebuild(false) : skinTrend() > 0;
+    if (thin) {
+      restart();
+      return;
+    }
   }
   for (int k = 0; k < 3; ++k) hood.centre[k] = s.x[k];
   nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
@@ -195,6 +275,20 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
   }
   for (Index j : removed_) eraseNeighbour(j, i);
   for (Index j : added_) insertNeighbour(j, i);
+  if (classSkins()) {
+    const std::size_t classes = classCount_.size();
+    const std::size_t ci = static_cast<std::size_t>(hood.cls);
+    for (Index j : removed_) {
+      const std::size_t cj = static_cast<std::size_t>(hood_[static_cast<std::size_t>(j)].cls);
+      --classEntries_[ci * classes + cj];
+      --classEntries_[cj * classes + ci];
+    }
+    for (Index j : added_) {
+      const std::size_t cj = static_cast<std::size_t>(hood_[static_cast<std::size_t>(j)].cls);
+      ++classEntries_[ci * classes + cj];
+      ++classEntries_[cj * classes + ci];
+    }
+  }
   const Index size = static_cast<Index>(scratch_.size());
   if (size > hood.capacity) relocateList(i, size + 8 + size / 2);
   std::copy(scratch_.begin(), scratch_.end(), nbData_.begin() + hood.begin);
@@ -218,6 +312,68 @@ int HardSphereSystem::skinTrend() const {
   if (exitWork > 2.0 * pairWork) return 1;
   if (exitWork < 0.5 * pairWork) return -1;
   return 0;
+}
+
+int HardSphereSystem::classTrend(std::size_t c) const {
+  // The work balance of skinTrend() per class. Pair work of class c: half of every list entry scanned
+  // that involves a class-c sphere, i.e. half of the scans made by class-c spheres plus half of the
+  // class-c entries scanned by all classes d (entries of class c in class-d lists x predictions per
+  // class-d sphere); summed over the classes it is the total pair work, as in skinTrend().
+  const std::size_t classes = classCount_.size();
+  const ClassCounters& now = classTotal_[c];
+  const ClassCounters& then = classAtRebuild_[c];
+  const double predictions = static_cast<double>(now.predictions - then.predictions);
+  // Too few events to judge: fewer than two predictions per sphere (slow classes between exit-triggered
+  // rebuilds) or than 64 in all.
+  if (classCount_[c] == 0 || predictions < std::max(2.0 * static_cast<double>(classCount_[c]), 64.0)) return 0;
+  double reverse = 0.0;
+  for (std::size_t d = 0; d < classes; ++d) {
+    if (classCount_[d] == 0) continue;
+    const double perSphere = static_cast<double>(classTotal_[d].predictions - classAtRebuild_[d].predictions) /
+                             static_cast<double>(classCount_[d]);
+    reverse += static_cast<double>(classEntries_[d * classes + c]) * perSphere;
+  }
+  const double pairWork = 0.5 * (static_cast<double>(now.scans - then.scans) + reverse);
+  const double exitWork = options_.exitWork * static_cast<double>(now.exits - then.exits);
+  if (exitWork > 8.0 * pairWork) return 2;
+  if (exitWork > 2.0 * pairWork) return 1;
+  if (exitWork < 0.5 * pairWork) return -1;
+  return 0;
+}
+
+bool HardSphereSystem::classesWantRebuild(bool shrinkToo) const {
+  for (std::size_t c = 0; c < classFloor_.size(); ++c) {
+    const int trend = classTrend(c);
+    const double lowest = classFloorMin(c);
+    if (trend > 0 && classFloor_[c] < std::max(1e3, lowest)) return true;
+    if (shrinkToo && trend < 0 && classFloor_[c] > lowest) return true;
+  }
+  return false;
+}
+
+std::vector<SkinClass> HardSphereSystem::skinClasses() const {
+  const std::size_t classes = classCount_.size();
+  std::vector<SkinClass> out(classes);
+  const double rmin = smallestRadius();
+  for (std::size_t c = 0; c < classes; ++c) {
+    out[c].count = classCount_[c];
+    out[c].floor = classSkins() ? classFloor_[c] : skinFloor_;
+    out[c].exits = classTotal_[c].exits;
+    out[c].collisions = classTotal_[c].collisions;
+    out[c].predictions = classTotal_[c].predictions;
+    out[c].scans = classTotal_[c].scans;
+  }
+  for (const Hood& h : hood_) {
+    SkinClass& k = out[static_cast<std::size_t>(h.cls)];
+    k.meanSkin += h.skin / rmin;
+    k.meanNeighbours += h.size;
+  }
+  for (SkinClass& k : out) {
+    if (k.count == 0) continue;
+    k.meanSkin /= k.count;
+    k.meanNeighbours /= k.count;
+  }
+  return out;
 }
 
 double HardSphereSystem::exitRatioSinceRebuild() const {

@@ -47,6 +47,13 @@ SystemState HardSphereSystem::saveState() {
     out.hoodCapacity[i] = h.capacity;
   }
   out.neighbours.assign(nbData_.begin(), nbData_.end());
+  out.classSkinFloor = classFloor_;
+  out.classCounters.clear();
+  for (const std::vector<ClassCounters>* counters : {&classTotal_, &classAtRebuild_}) {
+    for (const ClassCounters& k : *counters) {
+      out.classCounters.insert(out.classCounters.end(), {k.exits, k.collisions, k.predictions, k.scans});
+    }
+  }
   out.growth = growth_;
   out.elapsed = elapsed_;
   out.skinFloor = skinFloor_;
@@ -91,6 +98,10 @@ void HardSphereSystem::restoreState(const SystemState& state) {
       require(j >= 0 && j < n, "a neighbour index out of range");
     }
   }
+  // Size classes: a state saved before they existed has neither array (its class floors start afresh).
+  const bool hasClasses = !state.classSkinFloor.empty() || !state.classCounters.empty();
+  require(!hasClasses || state.classCounters.size() == 8 * state.classSkinFloor.size(),
+          "size-class skin floors and counters disagree in length");
   for (std::size_t i = 0; i < un; ++i) {
     State& s = state_[i];
     Hood& h = hood_[i];
@@ -113,6 +124,21 @@ void HardSphereSystem::restoreState(const SystemState& state) {
     nbCentre_.col(static_cast<Index>(i)) = Eigen::Vector3d(h.centre[0], h.centre[1], h.centre[2]);
   }
   nbData_.assign(state.neighbours.begin(), state.neighbours.end());
+  sizeRatio_ = state.sizeRatio;
+  assignClasses();  // from the restored masses, as the saved system had them
+  if (hasClasses) {
+    const std::size_t classes = classCount_.size();
+    require(state.classSkinFloor.size() == classes,
+            "a different number of size classes (the masses do not match the saved system's)");
+    classFloor_ = state.classSkinFloor;
+    for (std::size_t c = 0; c < classes; ++c) {
+      const std::int64_t* a = state.classCounters.data() + 4 * c;
+      const std::int64_t* b = state.classCounters.data() + 4 * (classes + c);
+      classTotal_[c] = ClassCounters{a[0], a[1], a[2], a[3]};
+      classAtRebuild_[c] = ClassCounters{b[0], b[1], b[2], b[3]};
+    }
+  }
+  countClassEntries();
   growth_ = state.growth;
   elapsed_ = state.elapsed;
   clock_ = 0.0;
@@ -199,6 +225,16 @@ void HardSphereSystem::validate(double overlapTolerance) const {
       fail(fmt::format("particles {} and {} overlap by {:.3g} relative", i, j, (s - dx.norm()) / s));
     }
   };
+  // The class entry counts of the skin rule follow the lists.
+  if (classSkins()) {
+    const std::size_t classes = classCount_.size();
+    std::vector<std::int64_t> entries(classes * classes, 0);
+    for (Index i = 0; i < n; ++i) {
+      const std::size_t row = static_cast<std::size_t>(hood_[static_cast<std::size_t>(i)].cls) * classes;
+      for (Index j : neighboursOf(i)) ++entries[row + static_cast<std::size_t>(hood_[static_cast<std::size_t>(j)].cls)];
+    }
+    if (entries != classEntries_) fail("size-class list entry counts disagree with the lists");
+  }
   if (n <= 2000) {
     for (Index i = 0; i < n; ++i)
       for (Index j = i + 1; j < n; ++j) checkPair(i, j);

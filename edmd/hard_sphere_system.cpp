@@ -199,9 +199,14 @@ void HardSphereSystem::synchronise() {
   kineticMark_ = 0.0;
   const bool resort = options_.resortInterval > 0.0 &&
                       static_cast<double>(total_.collisions - collisionsAtSort_) > options_.resortInterval * count();
-  const int trend = skinTrend();
-  const bool retune = options_.adaptiveSkin && total_.collisions - collisionsAtRebuild_ > 5 * std::int64_t{count()} &&
-                      (trend > 0 || (trend < 0 && skinFloor_ > options_.skinFloor));
+  const bool due = options_.adaptiveSkin && total_.collisions - collisionsAtRebuild_ > 5 * std::int64_t{count()};
+  bool retune = false;
+  if (due && classSkins()) {
+    retune = classesWantRebuild(true);
+  } else if (due) {
+    const int trend = skinTrend();
+    retune = trend > 0 || (trend < 0 && skinFloor_ > options_.skinFloor);
+  }
   if (resort || retune) rebuildNeighbourhoods();
   resetSchedule();
 }

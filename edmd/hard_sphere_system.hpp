@@ -19,14 +19,18 @@
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
 //   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp, O(1) moves, the broad
 //   phase's pair predicate), so the work per event does not depend on the size ratio. The shared broad
-//   phase builds the lists at global rebuilds (build() + findPairs(); its update() is not used).
+//   phase builds the first lists (build() + findPairs(); its update() is not used); later global rebuilds
+//   query the grid of neighbourhoods for every sphere (the HGrid's level optimiser made each build cost
+//   as much as ~10^4-10^5 collisions on the widest distributions).
 //   rho_i is fixed between global rebuilds ("epochs") so that an exit moves one neighbourhood in the grid;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
 //   skin_i = (mu - 1) max(min(O_i, kappa O_min), f O_min (O_min / O_i)^(3/2)): proportional for small
 //   spheres, capped for large ones, whose list would otherwise grow as (O_i / O_min)^3 instead of
 //   (O_i / O_min)^2, and a floor f (adapted at rebuilds) that covers the flight of fast small spheres and
-//   falls with their thermal speed ~ O^(-3/2).
+//   falls with their thermal speed ~ O^(-3/2). For size ratios >= 2 the floor is one per size class
+//   (radii in [2^c, 2^(c+1)) O_min), each adapted by the work its class causes (SystemOptions::classSkins),
+//   so that mid-size spheres flying far through the pores of large ones get skins that cover their flight.
 // * The event loop is bound by loads (a 10^4-particle system exceeds L2): the likely next particle's
 //   event, state and neighbourhood are prefetched one event ahead, and a collision partner's data
 //   before the collision arithmetic (process()).
@@ -57,9 +61,10 @@
 namespace polydem::edmd {
 
 struct SystemOptions {
-  /// Broad phase that builds the neighbour lists at global rebuilds (registry name). The engine calls only
-  /// its build() and findPairs() (and, for the overlap check of the input, on the spheres themselves);
-  /// exits are answered by hood_grid.hpp, so the backend's update() is never used and need not be cheap.
+  /// Broad phase that builds the first neighbour lists (registry name). The engine calls only its build()
+  /// and findPairs() (and, for the overlap check of the input, on the spheres themselves); exits and later
+  /// global rebuilds are answered by hood_grid.hpp (the same predicate, so the same lists), so the
+  /// backend's update() is never used and need not be cheap.
   std::string broadPhase = "hgrid-td";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
@@ -85,6 +90,18 @@ struct SystemOptions {
   /// docs/edmd-results.md): uniform volume omega = 50 is flat within noise over 30-100 and slower at 10 and
   /// 300; omega = 10 is 1.5x slower at 30 than at 60-100.
   double exitWork = 100.0;
+  /// Size ratios >= 2: one skin floor per size class (class c: radii in [2^c, 2^(c+1)) O_min), each
+  /// balanced by its own work (issue 24): skin_i = (mu - 1) max(min(O_i, kappa O_min),
+  /// f_c O_min (2^c O_min / O_i)^(3/2)). The exits of class c, x exitWork, are weighed against the pair
+  /// predictions that involve class c (half of each scanned list entry to each side: the scans made by
+  /// class-c spheres and the class-c entries scanned by every other class). Sphere sizes that fly far
+  /// between collisions (mid-size and small spheres in the pores of large ones) then get skins that cover
+  /// their flight, while the large spheres keep capped skins. f_c never falls below
+  /// max(skinFloor 2^(-3c/2), min(2^c, kappa)) and starts there, where every skin is the single-floor
+  /// rule's; growth steps are x1.3 (x2 when exits cost 8x the pair work), shrinking /1.15. false: one
+  /// floor f for all classes (f_c = f 2^(-3c/2)), balanced by the total work (the rule before issue 24,
+  /// kept for before/after comparisons). Size ratios < 2 have one class and are unaffected either way.
+  bool classSkins = true;
   /// Floor of the surface separation speed after a collision (m/s), against zero-delay re-collisions of
   /// grazing pairs whose approach speed is below round-off. Far below any physical speed.
   double minSeparationSpeed = 1e-10;
@@ -133,6 +150,19 @@ struct EventCounts {
   }
 };
 
+/// Event and list statistics of one size class of the skin rule (SystemOptions::classSkins): the spheres
+/// with radii in [2^c, 2^(c+1)) O_min. Counters are cumulative since construction.
+struct SkinClass {
+  Index count = 0;        ///< spheres in the class
+  double floor = 0.0;     ///< f_c
+  double meanSkin = 0.0;  ///< mean room rho_i - O_i at the last global rebuild, in units of O_min
+  double meanNeighbours = 0.0;
+  std::int64_t exits = 0;        ///< neighbourhood exits of class members
+  std::int64_t collisions = 0;   ///< binary collisions a class member took part in (a pair counts twice)
+  std::int64_t predictions = 0;  ///< predictions made by class members
+  std::int64_t scans = 0;        ///< list entries scanned by those predictions (pair predictions)
+};
+
 /// One processed binary collision, in the caller's particle numbering (i < j).
 struct CollisionRecord {
   Index i = -1, j = -1;
@@ -162,6 +192,11 @@ struct SystemState {
   std::vector<double> hoodRadius, hoodSkin;
   std::vector<std::int64_t> hoodBegin, hoodSize, hoodCapacity;
   std::vector<std::int64_t> neighbours;  ///< the flat list storage, spare slots included
+  std::vector<double> classSkinFloor;    ///< f_c per size class (SystemOptions::classSkins)
+  /// 8 per size class: exits, collisions, predictions, scans (cumulative) of class 0, 1, ..., then the
+  /// same four as they stood at the last global rebuild, class by class. Empty in states saved before
+  /// size classes existed (the floors then restart from their minimum).
+  std::vector<std::int64_t> classCounters;
   double growth = 0.0, elapsed = 0.0, skinFloor = 1.0, sizeRatio = 1.0, kinetic = 0.0, maxOverlap = 0.0;
   PressureWindow window;
   EventCounts total;
@@ -241,8 +276,12 @@ class HardSphereSystem {
   std::string describeBroadPhase() const;
   /// Mean neighbour-list length.
   double meanNeighbours() const;
-  /// Current skin floor f (see SystemOptions::skinFloor).
-  double skinFloor() const { return skinFloor_; }
+  /// Current skin floor f (see SystemOptions::skinFloor); with class skins, that of the smallest class.
+  double skinFloor() const { return classSkins() ? classFloor_[0] : skinFloor_; }
+  /// Pair predictions made (list entries scanned), cumulative.
+  std::int64_t pairPredictions() const { return pairWork_; }
+  /// Per size class of the skin rule (one class for size ratios < 2). O(classes).
+  std::vector<SkinClass> skinClasses() const;
 
   /// The state at a synchronisation (synchronises first). O(N x neighbours) copies; never called per event.
   SystemState saveState();
@@ -312,7 +351,24 @@ class HardSphereSystem {
   double exitRatioSinceRebuild() const;
   /// +1: the skins are too thin (exits cost too much), -1: too thick, 0: keep (SystemOptions::adaptiveSkin).
   int skinTrend() const;
-  double periodicLength() const;  // shortest periodic edge (inf if none)
+  // Size classes of the skin rule (SystemOptions::classSkins). The class of a sphere is a function of its
+  // mass (fixed for ever, saved with the state), so it survives renumbering and restores.
+  struct ClassCounters {
+    std::int64_t exits = 0, collisions = 0, predictions = 0, scans = 0;
+  };
+  bool classSkins() const { return options_.classSkins && classCount_.size() > 1; }
+  void assignClasses();
+  void countClassEntries();  // classEntries_ from the current lists
+  /// Per class: +2 far too thin, +1 too thin, -1 too thick, 0 keep (too few events to judge: 0).
+  int classTrend(std::size_t c) const;
+  bool classesWantRebuild(bool shrinkToo) const;
+  double classFloorMin(std::size_t c) const;
+  std::vector<Index> classCount_;          // spheres per class
+  std::vector<double> classFloor_;         // f_c
+  std::vector<ClassCounters> classTotal_;  // cumulative
+  std::vector<ClassCounters> classAtRebuild_;
+  std::vector<std::int64_t> classEntries_;  // C x C: entries of class d in the lists of class c, [c * C + d]
+  double periodicLength() const;            // shortest periodic edge (inf if none)
   Eigen::VectorXd mass_, inverseMass_;
   std::vector<Event> event_;
   EventQueue queue_;
@@ -329,6 +385,7 @@ class HardSphereSystem {
     double radius;  // rho
     double skin;    // room rho - O at the last global rebuild
     Index begin, size, capacity;
+    Index cls;  // size class of the skin rule (0 for size ratios < 2)
   };
   void prefetchList(Index i) const {  // the first two cache lines of i's list
     const Index* first = nbData_.data() + hood_[static_cast<std::size_t>(i)].begin;

@@ -83,6 +83,8 @@ void putEngine(io::Checkpoint& c, const edmd::SystemState& s) {
   c.integer["engine.counters"] = {s.collisionsAtSort, s.collisionsAtRebuild, s.exitsAtRebuild,  s.pairsAtRebuild,
                                   s.pairWork,         s.window.collisions,   s.lastCollision.i, s.lastCollision.j};
   c.integer["engine.total"] = countsVector(s.total);
+  c.real["engine.class_skin_floor"] = s.classSkinFloor;
+  c.integer["engine.class_counters"] = s.classCounters;
 }
 
 edmd::SystemState getEngine(const io::Checkpoint& c) {
@@ -124,6 +126,9 @@ edmd::SystemState getEngine(const io::Checkpoint& c) {
   s.lastCollision.i = static_cast<Index>(k[6]);
   s.lastCollision.j = static_cast<Index>(k[7]);
   s.total = countsFrom(c, "engine.total");
+  // Size-class skins (issue 24): checkpoints written before them lack both entries.
+  if (c.has("engine.class_skin_floor")) s.classSkinFloor = c.reals("engine.class_skin_floor");
+  if (c.has("engine.class_counters")) s.classCounters = c.integers("engine.class_counters");
   return s;
 }
 
