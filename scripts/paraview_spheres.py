@@ -8,13 +8,19 @@ Opens the .xmf with the XDMF 3 reader, glyphs every particle with a sphere scale
 array (ParaView's Sphere glyph has radius 0.5, i.e. unit diameter, so the scale factor is 2), shows
 the box outline of a series (its "box" block), colours by --color (a point array: radius, id,
 velocity, angular_velocity, or any array the snapshot holds; vectors are coloured by magnitude) and,
-with --screenshot, renders the chosen time step (--time, default the last) to a PNG.
+with --screenshot, renders the chosen time step (--time, default the last) to a PNG. --contacts adds a
+contact file (a NAME_contacts.xmf sidecar or a *_contacts_series.xmf, docs/files.md) as lines between the
+centres coloured by the normal force fn, line width growing with fn: force chains; the spheres are then
+drawn translucent (--opacity).
+
+    xvfb-run -s "-screen 0 1600x1200x24" pvbatch scripts/paraview_spheres.py jammed.xmf \
+        --contacts jammed_contacts.xmf --screenshot chains.png
 """
 import argparse
 import os
 import sys
 
-from paraview.simple import (ColorBy, ExtractCellsByType, GetColorTransferFunction, GetScalarBar, Glyph, GetActiveViewOrCreate, GetAnimationScene, Render,
+from paraview.simple import (CellDatatoPointData, ColorBy, ExtractCellsByType, ExtractSurface, Tube, GetColorTransferFunction, GetScalarBar, Glyph, GetActiveViewOrCreate, GetAnimationScene, Render,
                              ResetCamera, SaveScreenshot, Show, Xdmf3ReaderS)
 
 
@@ -24,6 +30,9 @@ def main(argv):
     parser.add_argument("--color", default="radius", help="point array to colour by (default radius)")
     parser.add_argument("--time", type=float, default=None, help="time step to show (s; default the last)")
     parser.add_argument("--resolution", type=int, default=16, help="sphere glyph resolution (default 16)")
+    parser.add_argument("--contacts", help="a polydem contact .xmf (sidecar or series) drawn as force-chain lines")
+    parser.add_argument("--opacity", type=float, default=None,
+                        help="sphere opacity (default 1, or 0.12 with --contacts)")
     parser.add_argument("--screenshot", help="save a PNG of the view here")
     parser.add_argument("--size", default="1200,900", help="screenshot size W,H in pixels")
     args = parser.parse_args(argv)
@@ -71,9 +80,34 @@ def main(argv):
     ColorBy(display, ("POINTS", args.color, "Magnitude"))
     display.RescaleTransferFunctionToDataRange(True, False)
     display.SetScalarBarVisibility(view, True)
+    display.Opacity = args.opacity if args.opacity is not None else (0.12 if args.contacts else 1.0)
     bar = GetScalarBar(GetColorTransferFunction(args.color), view)
     bar.TitleColor = [0.0, 0.0, 0.0]  # the default white labels vanish on the white background
     bar.LabelColor = [0.0, 0.0, 0.0]
+
+    contact_count = 0
+    if args.contacts:
+        # One 2-node line cell per contact, cell arrays fn, overlap, ...: coloured by fn; a tube whose radius
+        # follows fn (the cell value moved to the two line ends) makes the strong chains stand out.
+        contacts = Xdmf3ReaderS(FileName=[os.path.abspath(args.contacts)])
+        contacts.UpdatePipeline(time)
+        contact_count = contacts.GetDataInformation().GetNumberOfCells()
+        point_fn = CellDatatoPointData(Input=contacts)
+        point_fn.ProcessAllArrays = 1
+        tube = Tube(Input=ExtractSurface(Input=point_fn))  # Tube wants polygonal data
+        tube.Scalars = ["POINTS", "fn"]
+        tube.VaryRadius = "By Scalar"
+        tube.RadiusFactor = 5.0  # the strongest chain 5 x as thick
+        tube.NumberofSides = 8
+        tube.Radius = 0.12 * particles.PointData["radius"].GetRange()[0]  # the weakest chain
+        chains = Show(tube, view)
+        ColorBy(chains, ("POINTS", "fn"))
+        chains.RescaleTransferFunctionToDataRange(True, False)
+        chains.SetScalarBarVisibility(view, True)
+        fn_bar = GetScalarBar(GetColorTransferFunction("fn"), view)
+        fn_bar.TitleColor = [0.0, 0.0, 0.0]
+        fn_bar.LabelColor = [0.0, 0.0, 0.0]
+        fn_bar.WindowLocation = "Upper Left Corner"
 
     view.CameraPosition = [1.0, -1.6, 1.2]
     view.CameraFocalPoint = [0.0, 0.0, 0.0]
@@ -81,7 +115,8 @@ def main(argv):
     ResetCamera(view)
     Render(view)
     print(f"{args.xmf}: {len(times)} time step(s), showing t = {time:.6g} s; "
-          f"{particles.GetDataInformation().GetNumberOfPoints()} particles, coloured by {args.color}")
+          f"{particles.GetDataInformation().GetNumberOfPoints()} particles, coloured by {args.color}"
+          + (f"; {contact_count} contacts from {args.contacts}" if args.contacts else ""))
     if args.screenshot:
         width, height = (int(v) for v in args.size.split(","))
         SaveScreenshot(args.screenshot, view, ImageResolution=[width, height])
