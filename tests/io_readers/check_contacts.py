@@ -21,8 +21,6 @@ import glob
 import math
 import os
 import re
-import shutil
-import subprocess
 import sys
 
 try:
@@ -32,25 +30,9 @@ except ImportError as e:
     print(f"SKIP: {e}")
     sys.exit(77)
 
-polydem, work = sys.argv[1], sys.argv[2]
-shutil.rmtree(work, ignore_errors=True)
-os.makedirs(work)
-os.chdir(work)
-failures = []
+from reader_checks import check, failures, run, start  # noqa: E402 (after the optional imports)
 
-
-def run(*args):
-    r = subprocess.run([polydem, *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        print(r.stdout, r.stderr)
-        raise SystemExit(f"FAIL: polydem {' '.join(args)} exited {r.returncode}")
-    return r.stdout
-
-
-def check(condition, what):
-    print(("ok   " if condition else "FAIL ") + what)
-    if not condition:
-        failures.append(what)
+start(sys.argv)
 
 
 def contacts_h5(file):

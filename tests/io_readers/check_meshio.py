@@ -8,9 +8,6 @@ jam -o .h5, convert outputs from text, LAMMPS data and dump, convert --series) a
 with meshio.read() (sidecars) or meshio.xdmf.TimeSeriesReader (series). The expected values come from
 the HDF5 datasets read with h5py and from the generating parameters. Exit 77 (skipped) without meshio.
 """
-import os
-import shutil
-import subprocess
 import sys
 
 try:
@@ -21,25 +18,9 @@ except ImportError as e:  # a check tool, not a build dependency
     print(f"SKIP: {e}")
     sys.exit(77)
 
-polydem, work = sys.argv[1], sys.argv[2]
-shutil.rmtree(work, ignore_errors=True)
-os.makedirs(work)
-os.chdir(work)
-failures = []
+from reader_checks import check, failures, run, start  # noqa: E402 (after the optional imports)
 
-
-def run(*args):
-    r = subprocess.run([polydem, *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        print(r.stdout, r.stderr)
-        raise SystemExit(f"FAIL: polydem {' '.join(args)} exited {r.returncode}")
-    return r.stdout
-
-
-def check(condition, what):
-    print(("ok   " if condition else "FAIL ") + what)
-    if not condition:
-        failures.append(what)
+start(sys.argv)
 
 
 def h5_radius(h5):
