@@ -35,9 +35,19 @@ Eigen::Vector3d Box::minimumImageAny(Eigen::Vector3d d) const {
 Eigen::Vector3d Box::wrap(Eigen::Vector3d x) const {
   for (int k = 0; k < 3; ++k) {
     if (!periodic(k)) continue;
-    x[k] -= lengths_[k] * std::floor(x[k] / lengths_[k]);
-    // floor can leave x == L after round-off (x = -1e-18): fold that onto 0.
-    if (x[k] >= lengths_[k]) x[k] = 0.0;
+    const double length = lengths_[k];
+    const double folded = x[k] - length * std::floor(x[k] / length);
+    if (folded >= 0.0 && folded < length) {
+      x[k] = folded;  // the common case: a particle a few box lengths at most from the primary cell
+      continue;
+    }
+    // The quick fold left [0, L): round-off of the product for a far image (x = -1e41, L = 10; where the
+    // spacing of doubles near x exceeds L, any point of the cell is as good as another), x / L overflowing
+    // for a tiny L, or floor(x / L) rounding up for x just below L. fmod is exact, so the remainder lies in
+    // (-L, L); adding L to a tiny negative one can round to L, which folds onto 0.
+    double exact = std::fmod(x[k], length);
+    if (exact < 0.0) exact += length;
+    x[k] = exact < length ? exact : 0.0;
   }
   return x;
 }

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "core/errors.hpp"
 
@@ -32,6 +33,23 @@ TEST(Box, WrapAndContains) {
   EXPECT_TRUE(walls.contains(Eigen::Vector3d(2.0, 0.0, 0.0)));  // on the wall
   EXPECT_FALSE(walls.contains(Eigen::Vector3d(std::nan(""), 0.0, 0.0)));
   EXPECT_EQ(walls.wrap(Eigen::Vector3d(-1.0, 0.0, 0.0))[0], -1.0);
+}
+
+// Fuzz findings (text particle reader, session 9): the quick fold x - L floor(x / L) left the primary cell for
+// far images (round-off of the product), for a subnormal length (x / L overflows to inf, the result was -inf)
+// and for x one ulp below L (x / L rounds to 1, the result was negative). wrap must land in [0, L) always,
+// and wrapping a wrapped point must change nothing (files written and read again are bit-identical).
+TEST(Box, WrapLandsInThePrimaryCellForExtremeInputs) {
+  const double below = std::nextafter(10.0, 0.0);
+  const Box box(Eigen::Vector3d(10.0, 9e-311, 10.0), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic});
+  for (const Eigen::Vector3d& x :
+       {Eigen::Vector3d(1.18e41, 1.0, 7.7e14), Eigen::Vector3d(-1.18e41, -1.0, -7.7e14),
+        Eigen::Vector3d(below, 5e-311, -1e-300), Eigen::Vector3d(-1e-18, 0.0, -std::numeric_limits<double>::denorm_min())}) {
+    const Eigen::Vector3d w = box.wrap(x);
+    EXPECT_TRUE(box.contains(w)) << "wrap(" << x.transpose() << ") = " << w.transpose();
+    EXPECT_EQ(box.wrap(w), w) << "wrap is not idempotent at " << w.transpose();
+  }
+  EXPECT_EQ(box.wrap(Eigen::Vector3d(below, 0.0, 0.0))[0], below);
 }
 
 TEST(Box, RejectsBadLengths) {
