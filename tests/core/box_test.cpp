@@ -42,9 +42,9 @@ TEST(Box, WrapAndContains) {
 TEST(Box, WrapLandsInThePrimaryCellForExtremeInputs) {
   const double below = std::nextafter(10.0, 0.0);
   const Box box(Eigen::Vector3d(10.0, 9e-311, 10.0), {Boundary::Periodic, Boundary::Periodic, Boundary::Periodic});
-  for (const Eigen::Vector3d& x :
-       {Eigen::Vector3d(1.18e41, 1.0, 7.7e14), Eigen::Vector3d(-1.18e41, -1.0, -7.7e14),
-        Eigen::Vector3d(below, 5e-311, -1e-300), Eigen::Vector3d(-1e-18, 0.0, -std::numeric_limits<double>::denorm_min())}) {
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(1.18e41, 1.0, 7.7e14), Eigen::Vector3d(-1.18e41, -1.0, -7.7e14),
+                                   Eigen::Vector3d(below, 5e-311, -1e-300),
+                                   Eigen::Vector3d(-1e-18, 0.0, -std::numeric_limits<double>::denorm_min())}) {
     const Eigen::Vector3d w = box.wrap(x);
     EXPECT_TRUE(box.contains(w)) << "wrap(" << x.transpose() << ") = " << w.transpose();
     EXPECT_EQ(box.wrap(w), w) << "wrap is not idempotent at " << w.transpose();
