@@ -20,6 +20,17 @@ void AutoSelect::setHierarchyOverhead(double factor) {
   chosen_.reset();  // choose again at the next build
 }
 
+void AutoSelect::setSample(std::vector<double> radii) {
+  for (double r : radii) {
+    if (!(r > 0.0) || !std::isfinite(r)) {
+      throw ConfigError(
+          fmt::format("auto: the optimiser's sample holds a radius {} (expected positive and finite)", r));
+    }
+  }
+  sample_ = std::move(radii);
+  chosen_.reset();  // choose again at the next build
+}
+
 namespace {
 constexpr const char* kFewSpheres = "linked-cell (fewer than two spheres)";
 }  // namespace
@@ -56,7 +67,8 @@ void AutoSelect::doBuild(const SphereView& spheres) {
     }
   } else {
     const double K = costRatio_ ? *costRatio_ : modelCostRatio();
-    const OptimiserResult& result = optimiser_.result(spheres, box_, skin_, std::nullopt, K);
+    const OptimiserResult& result = sample_.empty() ? optimiser_.result(spheres, box_, skin_, std::nullopt, K)
+                                                    : optimiser_.result(sample_, box_, skin_, std::nullopt, K);
     if (!chosen_ || optimiser_.recomputed()) choose(result, K);
   }
   chosen_->setCounting(counting_);

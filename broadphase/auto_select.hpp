@@ -39,6 +39,14 @@ class AutoSelect final : public BroadPhase {
   /// power-law alpha = 0, where the model predicts 1.8-1.9x less work for the HGrid but linked cell ran
   /// 10-30% faster; at alpha <= -1 the predicted gap is 3.4x or more and the HGrid wins.
   void setHierarchyOverhead(double factor);
+  /// Optimise for these radii (in the box of each build) instead of each build's spheres: the whole
+  /// system's radii in a distributed run, where every rank builds on its own changing share of particles
+  /// and ghosts. The choice is then made once, for the system's density and distribution, and kept at
+  /// every build (without it each rank re-ran the optimiser at every neighbour-list build: a third of the
+  /// run time at 2 ranks, docs/parallel.md). Its top level holds the sample's largest sphere, so every
+  /// build's spheres must lie within the sample's radius range (ConfigError otherwise). Empty: back to the
+  /// build's own spheres.
+  void setSample(std::vector<double> radii);
   static constexpr double kDefaultHierarchyOverhead = 2.0;
 
  protected:
@@ -54,6 +62,7 @@ class AutoSelect final : public BroadPhase {
   std::optional<double> costRatio_;
   double hierarchyOverhead_ = kDefaultHierarchyOverhead;
   OptimiserCache optimiser_;
+  std::vector<double> sample_;  // setSample(); empty: each build's spheres
 };
 
 }  // namespace polydem::broadphase

@@ -359,27 +359,24 @@ HGridConfig configureHGrid(const SphereView& spheres, const Box& box, double ski
 
 // ---- the cache ----------------------------------------------------------------------------------------
 
-namespace {
-bool sameRadii(const std::vector<double>& stored, const SphereView& spheres) {
-  if (static_cast<Index>(stored.size()) != spheres.count()) return false;
-  for (Index i = 0; i < spheres.count(); ++i) {
-    if (stored[static_cast<std::size_t>(i)] != spheres.radius[i]) return false;
-  }
-  return true;
-}
-}  // namespace
-
-bool OptimiserCache::holds(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode,
+bool OptimiserCache::holds(std::span<const double> radii, const Box& box, double skin, std::optional<CrossLevel> mode,
                            double K) const {
-  return valid_ && box == box_ && skin == skin_ && mode == mode_ && K == K_ && sameRadii(radii_, spheres);
+  return valid_ && box == box_ && skin == skin_ && mode == mode_ && K == K_ &&
+         std::equal(radii.begin(), radii.end(), radii_.begin(), radii_.end());
 }
 
 const OptimiserResult& OptimiserCache::result(const SphereView& spheres, const Box& box, double skin,
                                               std::optional<CrossLevel> mode, double K) {
-  recomputed_ = !holds(spheres, box, skin, mode, K);
+  return result(std::span<const double>(spheres.radius.data(), static_cast<std::size_t>(spheres.count())), box, skin,
+                mode, K);
+}
+
+const OptimiserResult& OptimiserCache::result(std::span<const double> radii, const Box& box, double skin,
+                                              std::optional<CrossLevel> mode, double K) {
+  recomputed_ = !holds(radii, box, skin, mode, K);
   if (recomputed_) {
     valid_ = false;  // until the optimiser has succeeded
-    radii_.assign(spheres.radius.data(), spheres.radius.data() + spheres.count());
+    radii_.assign(radii.begin(), radii.end());
     OptimiserOptions options;
     options.K = K;
     options.mode = mode;

@@ -98,13 +98,17 @@ class OptimiserCache {
   /// like CostModelPsd::sample (e.g. no spheres).
   const OptimiserResult& result(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode,
                                 double K);
+  /// The same for a sample of radii alone (e.g. the whole system's, when each build sees a part of it).
+  const OptimiserResult& result(std::span<const double> radii, const Box& box, double skin,
+                                std::optional<CrossLevel> mode, double K);
   /// Whether the last result() call ran the optimiser (false: the stored result was returned).
   bool recomputed() const { return recomputed_; }
   /// Forget the stored result: the next result() call optimises.
   void clear() { valid_ = false; }
 
  private:
-  bool holds(const SphereView& spheres, const Box& box, double skin, std::optional<CrossLevel> mode, double K) const;
+  bool holds(std::span<const double> radii, const Box& box, double skin, std::optional<CrossLevel> mode,
+             double K) const;
 
   std::vector<double> radii_;
   Box box_;

@@ -15,6 +15,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "broadphase/auto_select.hpp"
 #include "broadphase/registry.hpp"
 #include "core/interrupt.hpp"
 #include "integrators/verlet_list.hpp"
@@ -195,6 +196,15 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
   initialEnergy_ = g.initialEnergy;
   growth_ = g.growthSinceBuild;
   backend_ = broadphase::makeBroadPhase(settings_.broadPhase);
+  if (auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get())) {
+    // Every rank builds on its own changing share of particles and ghosts: `auto` optimises once for the
+    // whole system (global radii and density, as the serial run does) with rank 0's calibrated K, so all
+    // ranks choose the same structure and none re-optimises at a build.
+    double K = broadphase::modelCostRatio();
+    mpiCheck(MPI_Bcast(&K, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Bcast");
+    chooser->setCostRatio(K);
+    chooser->setSample(std::vector<double>(g.referenceRadius.data(), g.referenceRadius.data() + n));
+  }
 
   // Ownership and ghosts from the positions of the last build: the list is then the serial run's. The
   // bisection weighs particles by count here (every rank has the global state: no communication).

@@ -617,5 +617,45 @@ TEST(AutoSelect, KeepsLinkedCellUnlessTheHGridSavesMoreThanItsOverhead) {
   EXPECT_THROW(a.setHierarchyOverhead(std::nan("")), ConfigError);
 }
 
+// A distributed run's ranks build on changing shares of the system: with the system's radii as the sample,
+// auto chooses once (the choice the whole system gets) and every build on a share is still exact.
+TEST(AutoSelect, ASampleFixesTheChoiceForEveryShareOfTheSystem) {
+  const test::Scene uv =
+      test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.5, .seed = 5});
+  const double skin = 0.1 * uv.minRadius();
+  AutoSelect whole;
+  whole.setCostRatio(0.4);
+  whole.build(uv.spheres(), uv.box, skin);
+  AutoSelect shared;
+  shared.setCostRatio(0.4);
+  shared.setSample(std::vector<double>(uv.radius.data(), uv.radius.data() + uv.radius.size()));
+  for (double lo : {0.0, 0.3, 0.55}) {  // slabs of about half the box, as two ranks' particles and ghosts
+    std::vector<Index> keep;
+    for (Index i = 0; i < uv.radius.size(); ++i) {
+      const double x = uv.centre(0, i) / uv.box.length(0);
+      if (x >= lo && x < lo + 0.5) keep.push_back(i);
+    }
+    Eigen::Matrix3Xd centre(3, static_cast<Index>(keep.size()));
+    Eigen::VectorXd radius(static_cast<Index>(keep.size()));
+    for (std::size_t k = 0; k < keep.size(); ++k) {
+      centre.col(static_cast<Index>(k)) = uv.centre.col(keep[k]);
+      radius[static_cast<Index>(k)] = uv.radius[keep[k]];
+    }
+    const SphereView share{centre, radius};
+    shared.build(share, uv.box, skin);
+    EXPECT_EQ(shared.reason(), whole.reason()) << "slab from " << lo;
+    std::vector<Pair> got, expected;
+    shared.findPairs(share, got);
+    BruteForce brute;
+    brute.build(share, uv.box, skin);
+    brute.findPairs(share, expected);
+    sortPairs(got);
+    sortPairs(expected);
+    EXPECT_EQ(got, expected) << "slab from " << lo;
+  }
+  EXPECT_THROW(shared.setSample({1.0, 0.0}), ConfigError);
+  EXPECT_THROW(shared.setSample({1.0, std::nan("")}), ConfigError);
+}
+
 }  // namespace
 }  // namespace polydem::broadphase
