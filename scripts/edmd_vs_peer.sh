@@ -10,7 +10,8 @@
 #
 # Settings (environment): N (10000), PHI (0.5), CPP collisions per particle per run (300), ROUNDS (5),
 # CASES (mono; "mono bi1.2" adds a 50:50-by-number binary mixture of size ratio 1.2), SEED (1), CORE for
-# `taskset -c` (1), OUT (edmd_vs_peer_<UTC date>), CC (gcc).
+# `taskset -c` (1), OUT (edmd_vs_peer_<UTC date>), CC (gcc). N, PHI and CASES may be lists ("10000 32000"):
+# every case runs at every N and PHI, one after the other, each with its own start and rounds.
 #
 # What it does, per case: ONE start, made by `polydem jam -n N --schedule 1e-2 --target-phi PHI` and written
 # as polydem text (start.txt) and in the peer's .sph format (start.sph: lengths in units of the largest
@@ -25,8 +26,9 @@
 #   peer:    the driver, ceil(CPP x N) collisions from the same positions. The peer's own end-of-run report
 #            gives the reduced pressure P* = beta P sigma^3 (sigma = largest diameter) over the run; the
 #            script converts it, Z = P* V / N (V in sigma^3). The driver times the event loop.
-# Both codes draw fresh Maxwell-Boltzmann velocities (kT = 1) with their own generators and run at constant
-# energy; masses: polydem's are proportional to r^3; the peer's are all equal unless the driver is given
+# Both codes draw fresh Maxwell-Boltzmann velocities (kT = 1) with their own generators, seeded SEED + round
+# (the driver's `seed=K` re-seeds the peer's generator and redraws with the peer's routine), and run at
+# constant energy; the Z columns give the median and range over the rounds (the runs' statistical error); masses: polydem's are proportional to r^3; the peer's are all equal unless the driver is given
 # `volume-mass`, which the script does for every case that is not monodisperse (mass (2r)^3 in units of
 # the largest sphere's, then fresh velocities and a new prediction for every sphere before the timed loop).
 # The timed part is the event loop at fixed density only (not reading, list building, analysis) for both.
@@ -38,8 +40,8 @@
 # macro) and supplies a main that (1) puts the input file name into the peer's input-name variable and calls
 # the peer's init(); (2) removes the thermostat's event from the peer's event calendar before any event
 # runs (the peer calls it with kicks every 0.01 time units otherwise), so the run is microcanonical like
-# polydem's; (3) with `volume-mass`, sets the masses as above, redraws the velocities with the peer's own
-# routine and re-predicts every sphere's event; (4) calls the peer's step() until its collision counter
+# polydem's; (3) with `volume-mass` and/or `seed=K`, sets the masses as above and/or re-seeds the peer's
+# generator, redraws the velocities with the peer's own routine and re-predicts every sphere's event; (4) calls the peer's step() until its collision counter
 # reaches ceil(CPP x N), timing that loop with CLOCK_PROCESS_CPUTIME_ID and CLOCK_MONOTONIC; (5) calls the
 # peer's end-of-run report and prints one line `peer-driver: ...` with the counts and times. Everything
 # else (the event calendar and its tuning constants, neighbour lists with shell 1.5, the write event
@@ -84,7 +86,8 @@ if [ -d "$peer" ]; then
   [ -n "$cflags" ] || { echo "error: no CFLAGS line in $src/Makefile" >&2; exit 2; }
   cat > "$OUT/peer_driver.c" <<'C'
 /* Driver for the peer's Single code (scripts/edmd_vs_peer.sh of polydem): the peer's source is included
-   unchanged; this file only adds a main. Usage: peer_driver FILE.sph COLLISIONS_PER_PARTICLE [volume-mass] */
+   unchanged; this file only adds a main.
+   Usage: peer_driver FILE.sph COLLISIONS_PER_PARTICLE [volume-mass] [seed=K] */
 #define main peer_original_main
 #include "mdSingle.c"
 #undef main
@@ -99,8 +102,23 @@ static double clockSeconds(clockid_t id) {
 }
 
 int main(int argc, char** argv) {
-  if (argc < 3 || argc > 4 || (argc == 4 && strcmp(argv[3], "volume-mass") != 0)) {
-    fprintf(stderr, "usage: %s FILE.sph COLLISIONS_PER_PARTICLE [volume-mass]\n", argv[0]);
+  int volumeMass = 0;
+  long seed = 0; /* 0: the peer's own velocities (its fixed seed) */
+  int bad = argc < 3;
+  for (int k = 3; k < argc && !bad; k++) {
+    char* rest = NULL;
+    if (strcmp(argv[k], "volume-mass") == 0) {
+      volumeMass = 1;
+    } else if (strncmp(argv[k], "seed=", 5) == 0) {
+      errno = 0;
+      seed = strtol(argv[k] + 5, &rest, 10);
+      bad = errno != 0 || rest == argv[k] + 5 || *rest != '\0' || seed < 1;
+    } else {
+      bad = 1;
+    }
+  }
+  if (bad) {
+    fprintf(stderr, "usage: %s FILE.sph COLLISIONS_PER_PARTICLE [volume-mass] [seed=K>=1]\n", argv[0]);
     return 2;
   }
   if (strlen(argv[1]) >= sizeof inputfilename) {
@@ -118,8 +136,11 @@ int main(int argc, char** argv) {
   init();
   /* The thermostat event sits at particles + N + 2 when the constant switches it on: take it out. */
   if (usethermostat) removeevent(particles + N + 2);
-  if (argc == 4) {
-    for (int i = 0; i < N; i++) particles[i].mass = 8.0 * pow(particles[i].radius, 3);
+  if (volumeMass || seed > 0) {
+    if (volumeMass) {
+      for (int i = 0; i < N; i++) particles[i].mass = 8.0 * pow(particles[i].radius, 3);
+    }
+    if (seed > 0) init_genrand((unsigned long)seed);
     randommovement();
     for (int i = 0; i < N; i++) particles[i].counter++;
     for (int i = 0; i < N; i++) {
@@ -138,8 +159,8 @@ int main(int argc, char** argv) {
   const double cpu = clockSeconds(CLOCK_PROCESS_CPUTIME_ID) - cpu0, wall = clockSeconds(CLOCK_MONOTONIC) - wall0;
   printstuff();
   printf("peer-driver: particles %d collisions %u cpu_seconds %.6f wall_seconds %.6f thermostat_removed %d "
-         "volume_mass %d\n",
-         N, colcounter, cpu, wall, usethermostat ? 1 : 0, argc == 4);
+         "volume_mass %d seed %ld\n",
+         N, colcounter, cpu, wall, usethermostat ? 1 : 0, volumeMass, seed);
   return 0;
 }
 C
@@ -170,8 +191,8 @@ import sys
 import time
 
 polydem, driver, peer_build = sys.argv[1:4]
-n = int(os.environ["N"])
-phi = float(os.environ["PHI"])
+counts = [int(w) for w in os.environ["N"].split()]
+fractions = [float(w) for w in os.environ["PHI"].split()]
 cpp = float(os.environ["CPP"])
 rounds = int(os.environ["ROUNDS"])
 cases = os.environ["CASES"].split()
@@ -185,8 +206,11 @@ case_args = {
 for c in cases:
     if c not in case_args:
         sys.exit(f"error: unknown case '{c}' (known: {' '.join(case_args)})")
-if rounds < 1 or n < 2 or not (0 < phi < 0.74) or not (cpp > 0):
+if rounds < 1 or not counts or min(counts) < 2 or not fractions or not all(0 < f < 0.74 for f in fractions) \
+        or not (cpp > 0):
     sys.exit("error: need ROUNDS >= 1, N >= 2, 0 < PHI < 0.74, CPP > 0")
+# Every case at every N and PHI; the label names the folder and the rows of the CSVs.
+combos = [(f"{c}_n{n}_phi{f:g}", c, n, f) for c in cases for n in counts for f in fractions]
 pin = ["taskset", "-c", core]
 
 
@@ -294,12 +318,12 @@ fields = ["case", "round", "position", "code", "n", "phi", "collisions", "clock"
           "loop_wall_seconds", "collisions_per_second", "reduced_pressure_Z", "peer_Pstar", "process_cpu_seconds",
           "process_wall_seconds"]
 commands = {}
-for case in cases:
+for case, kind, n, phi in combos:
     d = os.path.join(out, case)
     os.makedirs(d, exist_ok=True)
     start = os.path.join(d, "start.txt")
     make = [polydem, "jam", "-n", str(n), "--schedule", "1e-2", "--target-phi", repr(phi), "--seed", seed,
-            "-o", start, "--progress", "1e9"] + case_args[case]
+            "-o", start, "--progress", "1e9"] + case_args[kind]
     print(f"[{case}] start: {' '.join(make)}", flush=True)
     if os.path.exists(start):
         os.remove(start)
@@ -312,10 +336,12 @@ for case in cases:
     mono = len({p[3] for p in particles}) == 1
     target = volume_fraction * (1.0 + 1e-9)
     pd_cmd = [polydem, "jam", "-i", start, "--schedule", "1e-2", "--target-phi", repr(target),
-              "--run-collisions", repr(cpp), "--seed", seed, "--progress", "1e9"]
+              "--run-collisions", repr(cpp), "--progress", "1e9"]
     peer_cmd = [driver, sph, repr(cpp)] + ([] if mono else ["volume-mass"])
-    commands[case] = {"start": make, "polydem": pd_cmd + ["--summary-json", "polydem_R.json"],
-                      "peer": peer_cmd}
+    # Velocities: seed SEED + round in both codes (each round a new Maxwell-Boltzmann draw from the same
+    # positions), so the spread of Z over the rounds shows its statistical error.
+    commands[case] = {"start": make, "polydem": pd_cmd + ["--seed", "SEED+R", "--summary-json", "polydem_R.json"],
+                      "peer": peer_cmd + ["seed=SEED+R"]}
     print(f"[{case}] {len(particles)} spheres, phi {volume_fraction:.6f}, {'mono' if mono else 'mixture'}; "
           f"{rounds} rounds of {cpp:g} collisions per particle", flush=True)
     for r in range(rounds):
@@ -326,10 +352,10 @@ for case in cases:
                 summary = os.path.join(d, f"polydem_{r}.json")
                 if os.path.exists(summary):
                     os.remove(summary)
-                cpu, wall = run(pd_cmd + ["--summary-json", summary], log, d)
+                cpu, wall = run(pd_cmd + ["--seed", str(int(seed) + r), "--summary-json", summary], log, d)
                 res = parse_polydem(summary)
             else:
-                cpu, wall = run(peer_cmd, log, d)
+                cpu, wall = run(peer_cmd + [f"seed={int(seed) + r}"], log, d)
                 res = parse_peer(log, peer_volume)
             rate = res["collisions"] / res["loop_seconds"]
             row = {"case": case, "round": r, "position": position, "code": code, "n": len(particles),
@@ -349,14 +375,15 @@ for case in cases:
 machine["load_after"] = open("/proc/loadavg").read().split()[:3]
 
 summary_fields = ["case", "n", "phi", "rounds", "polydem_median", "polydem_min", "polydem_max", "polydem_clock",
-                  "peer_median", "peer_min", "peer_max", "ratio_polydem_over_peer", "Z_polydem", "Z_peer",
+                  "peer_median", "peer_min", "peer_max", "ratio_polydem_over_peer", "Z_polydem", "Z_polydem_min",
+                  "Z_polydem_max", "Z_peer", "Z_peer_min", "Z_peer_max",
                   "Z_relative_difference", "Z_within_0.5%"]
 summaries = []
-for case in cases:
+for case, kind, n, phi in combos:
     mine = [r for r in rows if r["case"] == case]
     rate = {c: [float(r["collisions_per_second"]) for r in mine if r["code"] == c] for c in ("polydem", "peer")}
-    z = {c: statistics.median(float(r["reduced_pressure_Z"]) for r in mine if r["code"] == c)
-         for c in ("polydem", "peer")}
+    zs = {c: [float(r["reduced_pressure_Z"]) for r in mine if r["code"] == c] for c in ("polydem", "peer")}
+    z = {c: statistics.median(zs[c]) for c in zs}
     clocks = sorted({r["clock"] for r in mine if r["code"] == "polydem"})
     rel = z["polydem"] / z["peer"] - 1.0
     summaries.append({
@@ -367,6 +394,8 @@ for case in cases:
         "peer_max": f"{max(rate['peer']):.4g}",
         "ratio_polydem_over_peer": f"{statistics.median(rate['polydem']) / statistics.median(rate['peer']):.3f}",
         "Z_polydem": f"{z['polydem']:.6g}", "Z_peer": f"{z['peer']:.6g}",
+        "Z_polydem_min": f"{min(zs['polydem']):.6g}", "Z_polydem_max": f"{max(zs['polydem']):.6g}",
+        "Z_peer_min": f"{min(zs['peer']):.6g}", "Z_peer_max": f"{max(zs['peer']):.6g}",
         "Z_relative_difference": f"{rel:+.4%}", "Z_within_0.5%": "yes" if abs(rel) <= 0.005 else "NO"})
 with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
     w = csv.DictWriter(f, fieldnames=summary_fields)
@@ -380,6 +409,12 @@ lines = [f"edmd_vs_peer: {machine['date']}, {machine['host']}, {machine['cpu']},
          f"polydem: {polydem}",
          "collisions per second of the event loop at fixed density (CPU seconds unless polydem_clock says wall); "
          "Z = PV/(NkT)", ""]
+if max(float(x) for x in machine["load_before"][:1] + machine["load_after"][:1]) > 0.5:
+    lines.insert(1, "WARNING: 1-minute load average above 0.5: the machine was not quiet, so these rates are not figures")
+for case, kind, n, phi in combos:
+    counts_seen = {int(r["collisions"]) for r in rows if r["case"] == case}
+    if len(counts_seen) != 1:
+        lines.insert(1, f"WARNING: {case}: the runs did not all make the same number of collisions: {sorted(counts_seen)}")
 header = ["case", "N", "phi", "polydem (min-max)", "peer (min-max)", "polydem/peer", "Z polydem", "Z peer",
           "dZ"]
 lines.append(" | ".join(header))
@@ -387,8 +422,9 @@ for s in summaries:
     lines.append(" | ".join([
         s["case"], str(s["n"]), s["phi"],
         f"{s['polydem_median']} ({s['polydem_min']}-{s['polydem_max']}, {s['polydem_clock']})",
-        f"{s['peer_median']} ({s['peer_min']}-{s['peer_max']})", s["ratio_polydem_over_peer"], s["Z_polydem"],
-        s["Z_peer"], f"{s['Z_relative_difference']} ({'within' if s['Z_within_0.5%'] == 'yes' else 'NOT within'} 0.5%)"]))
+        f"{s['peer_median']} ({s['peer_min']}-{s['peer_max']})", s["ratio_polydem_over_peer"],
+        f"{s['Z_polydem']} ({s['Z_polydem_min']}-{s['Z_polydem_max']})",
+        f"{s['Z_peer']} ({s['Z_peer_min']}-{s['Z_peer_max']})", f"{s['Z_relative_difference']} ({'within' if s['Z_within_0.5%'] == 'yes' else 'NOT within'} 0.5%)"]))
 lines.append("")
 for case, c in commands.items():
     lines.append(f"[{case}] start:   {' '.join(c['start'])}")
