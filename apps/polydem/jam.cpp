@@ -385,23 +385,31 @@ CompressOutcome compressPacking(JamRun& run) {
 /// --run-collisions: the fixed-density run after the compression; its pressure replaces the last block's.
 void runFixedDensity(JamRun& run, JamSummary& summary) {
   edmd::HardSphereSystem& system = *run.system;
+  const CpuStopwatch cpu;  // CPU time too: the figure comparisons with other codes use (issue 17)
   const edmd::EquilibriumRun eq =
       edmd::runAtFixedDensity(system, run.opt.runCollisions, 100.0, [] { return interruptRequested(); });
+  const double cpuSeconds = std::max(cpu.seconds(), 1e-9);
+  const double perCpuSecond = static_cast<double>(eq.counts.collisions) / cpuSeconds;
   if (interruptRequested()) {
     summary.interrupted = true;
     summary.stopReason = "interrupted (during --run-collisions)";
   }
   fmt::print(
       "fixed density: {} collisions per particle, p {} (compression ended at {}), {:.3g} collisions/s, "
-      "{:.3g} events/s, {:.2f} s; {:.1f} neighbours per sphere, {:.3f} exits per collision\n",
+      "{:.3g} events/s, {:.2f} s; {:.1f} neighbours per sphere, {:.3f} exits per collision; {:.3g} collisions "
+      "per CPU s ({:.2f} CPU s)\n",
       run.opt.runCollisions, fmtPressure(eq.pressure), fmtPressure(summary.pressure), eq.collisionsPerSecond,
       eq.eventsPerSecond, eq.wallSeconds, system.meanNeighbours(),
-      static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)));
+      static_cast<double>(eq.counts.exits) / static_cast<double>(std::max<std::int64_t>(1, eq.counts.collisions)),
+      perCpuSecond, cpuSeconds);
   app::summary().put("fixed_density.collisions_per_particle", run.opt.runCollisions);
   app::summary().put("fixed_density.reduced_pressure", eq.pressure);
   app::summary().put("fixed_density.compression_end_pressure", summary.pressure);
   app::summary().put("fixed_density.collisions_per_second", eq.collisionsPerSecond);
   app::summary().put("fixed_density.wall_seconds", eq.wallSeconds);
+  app::summary().put("fixed_density.collisions", static_cast<std::int64_t>(eq.counts.collisions));
+  app::summary().put("fixed_density.cpu_seconds", cpuSeconds);
+  app::summary().put("fixed_density.collisions_per_cpu_second", perCpuSecond);
   summary.pressure = eq.pressure;
 }
 

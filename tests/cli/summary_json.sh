@@ -96,4 +96,16 @@ import json, sys
 d = json.load(open("short.json"))
 assert d["exit"]["code"] == int(sys.argv[1]) and d["exit"]["code"] == 4 and d["report"]["target_reached"] is False, d["exit"]
 PY
+# jam --run-collisions: the fixed-density run's collisions and CPU seconds (the figure scripts/edmd_vs_peer.sh
+# compares with another code), consistent with each other and with the wall time of the same loop.
+"$polydem" jam -n 120 --seed 2 --schedule 1e-2 --target-phi 0.4 --run-collisions 40 --summary-json fixed.json \
+  > fixed.log 2>&1 || fail "jam --run-collisions exit $?: $(tail -3 fixed.log)"
+$py - <<'PY' || fail "fixed.json"
+import json
+f = json.load(open("fixed.json"))["fixed_density"]
+assert f["collisions"] >= 40 * 120, f
+assert 0 < f["cpu_seconds"] <= 1.05 * f["wall_seconds"] + 1e-3, f
+assert abs(f["collisions_per_cpu_second"] * f["cpu_seconds"] - f["collisions"]) <= 1e-6 * f["collisions"], f
+PY
+grep -q "collisions per CPU s" fixed.log || fail "no CPU rate on the fixed density line: $(grep '^fixed density' fixed.log)"
 echo "summary-json: ok"
