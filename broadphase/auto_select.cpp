@@ -20,14 +20,16 @@ void AutoSelect::setHierarchyOverhead(double factor) {
   chosen_.reset();  // choose again at the next build
 }
 
-void AutoSelect::setSample(std::vector<double> radii) {
+void AutoSelect::setSample(std::span<const double> radii, const Box& box, double skin) {
   for (double r : radii) {
     if (!(r > 0.0) || !std::isfinite(r)) {
       throw ConfigError(
           fmt::format("auto: the optimiser's sample holds a radius {} (expected positive and finite)", r));
     }
   }
-  sample_ = std::move(radii);
+  const double K = costRatio_ ? *costRatio_ : modelCostRatio();
+  OptimiserCache once;  // the optimisation a build on these radii would run, without keeping the radii
+  fixed_ = FixedChoice{once.result(radii, box, skin, std::nullopt, K), box, skin, K};
   chosen_.reset();  // choose again at the next build
 }
 
@@ -61,15 +63,21 @@ void AutoSelect::choose(const OptimiserResult& result, double K) {
 void AutoSelect::doBuild(const SphereView& spheres) {
   if (spheres.count() < 2) {
     optimiser_.clear();
+    chosenFromFixed_ = false;
     if (!chosen_ || reason_ != kFewSpheres) {
       chosen_ = std::make_unique<LinkedCell>();
       reason_ = kFewSpheres;
     }
   } else {
     const double K = costRatio_ ? *costRatio_ : modelCostRatio();
-    const OptimiserResult& result = sample_.empty() ? optimiser_.result(spheres, box_, skin_, std::nullopt, K)
-                                                    : optimiser_.result(sample_, box_, skin_, std::nullopt, K);
-    if (!chosen_ || optimiser_.recomputed()) choose(result, K);
+    if (fixed_ && fixed_->box == box_ && fixed_->skin == skin_ && fixed_->K == K) {
+      if (!chosen_ || !chosenFromFixed_) choose(fixed_->result, K);
+      chosenFromFixed_ = true;
+    } else {
+      const OptimiserResult& result = optimiser_.result(spheres, box_, skin_, std::nullopt, K);
+      if (!chosen_ || chosenFromFixed_ || optimiser_.recomputed()) choose(result, K);
+      chosenFromFixed_ = false;
+    }
   }
   chosen_->setCounting(counting_);
   chosen_->setThreads(threads_);

@@ -7,6 +7,7 @@
 // pays for it once. K is the calibrated one (modelCostRatio(), calibrate_k.hpp) unless setCostRatio().
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -39,14 +40,15 @@ class AutoSelect final : public BroadPhase {
   /// power-law alpha = 0, where the model predicts 1.8-1.9x less work for the HGrid but linked cell ran
   /// 10-30% faster; at alpha <= -1 the predicted gap is 3.4x or more and the HGrid wins.
   void setHierarchyOverhead(double factor);
-  /// Optimise for these radii (in the box of each build) instead of each build's spheres: the whole
-  /// system's radii in a distributed run, where every rank builds on its own changing share of particles
-  /// and ghosts. The choice is then made once, for the system's density and distribution, and kept at
-  /// every build (without it each rank re-ran the optimiser at every neighbour-list build: a third of the
-  /// run time at 2 ranks, docs/parallel.md). Its top level holds the sample's largest sphere, so every
-  /// build's spheres must lie within the sample's radius range (ConfigError otherwise). Empty: back to the
-  /// build's own spheres.
-  void setSample(std::vector<double> radii);
+  /// Optimise now for these radii in `box` with `skin` (the whole system's, in a distributed run where
+  /// every rank builds on its own changing share of particles and ghosts) and keep that choice at every
+  /// build in the same box with the same skin and K, instead of optimising for each build's spheres
+  /// (which re-ran the optimiser at every neighbour-list build of every rank: a third of the run time at
+  /// 2 ranks, docs/parallel.md). Only the optimiser's result is kept, not the radii. Its top level holds
+  /// the sample's largest sphere, so a build's spheres must lie within the sample's radius range
+  /// (ConfigError otherwise). A build in another box or with another skin or K optimises for its own
+  /// spheres as before. Throws ConfigError for an empty sample or a radius that is not positive and finite.
+  void setSample(std::span<const double> radii, const Box& box, double skin);
   static constexpr double kDefaultHierarchyOverhead = 2.0;
 
  protected:
@@ -62,7 +64,14 @@ class AutoSelect final : public BroadPhase {
   std::optional<double> costRatio_;
   double hierarchyOverhead_ = kDefaultHierarchyOverhead;
   OptimiserCache optimiser_;
-  std::vector<double> sample_;  // setSample(); empty: each build's spheres
+  struct FixedChoice {  // setSample(): the choice for the system, valid in this box with this skin and K
+    OptimiserResult result;
+    Box box;
+    double skin = 0.0;
+    double K = 0.0;
+  };
+  std::optional<FixedChoice> fixed_;
+  bool chosenFromFixed_ = false;  // chosen_ came from fixed_ (else from a build's own spheres)
 };
 
 }  // namespace polydem::broadphase

@@ -203,7 +203,7 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
     double K = broadphase::modelCostRatio();
     mpiCheck(MPI_Bcast(&K, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Bcast");
     chooser->setCostRatio(K);
-    chooser->setSample(std::vector<double>(g.referenceRadius.data(), g.referenceRadius.data() + n));
+    chooser->setSample(std::span<const double>(g.referenceRadius.data(), static_cast<std::size_t>(n)), box_, skin_);
   }
 
   // Ownership and ghosts from the positions of the last build: the list is then the serial run's. The

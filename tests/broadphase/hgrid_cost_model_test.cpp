@@ -628,7 +628,7 @@ TEST(AutoSelect, ASampleFixesTheChoiceForEveryShareOfTheSystem) {
   whole.build(uv.spheres(), uv.box, skin);
   AutoSelect shared;
   shared.setCostRatio(0.4);
-  shared.setSample(std::vector<double>(uv.radius.data(), uv.radius.data() + uv.radius.size()));
+  shared.setSample(std::span<const double>(uv.radius.data(), static_cast<std::size_t>(uv.radius.size())), uv.box, skin);
   for (double lo : {0.0, 0.3, 0.55}) {  // slabs of about half the box, as two ranks' particles and ghosts
     std::vector<Index> keep;
     for (Index i = 0; i < uv.radius.size(); ++i) {
@@ -653,8 +653,8 @@ TEST(AutoSelect, ASampleFixesTheChoiceForEveryShareOfTheSystem) {
     sortPairs(expected);
     EXPECT_EQ(got, expected) << "slab from " << lo;
   }
-  EXPECT_THROW(shared.setSample({1.0, 0.0}), ConfigError);
-  EXPECT_THROW(shared.setSample({1.0, std::nan("")}), ConfigError);
+  EXPECT_THROW(shared.setSample(std::vector<double>{1.0, 0.0}, uv.box, skin), ConfigError);
+  EXPECT_THROW(shared.setSample(std::vector<double>{1.0, std::nan("")}, uv.box, skin), ConfigError);
 }
 
 }  // namespace
