@@ -142,7 +142,8 @@ int main(int argc, char** argv) {
         ->Unit(benchmark::kMillisecond);
   }
   std::vector<std::string> updated = {"linked-cell", "sap"};
-  updated.insert(updated.end(), {"lbvh", "aabb-tree"});  // refit / incremental trees (issue 23)
+  updated.insert(updated.end(),
+                 {"lbvh", "aabb-tree", "hgrid-linked"});  // refit / incremental trees (issue 23), linked grid
 #if POLYDEM_WITH_CGAL
   updated.insert(updated.end(), {"delaunay", "delaunay-move"});  // default (rebuild above 25% moved) vs move()
 #endif

@@ -8,6 +8,7 @@
 #include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
 #include "broadphase/hgrid.hpp"
+#include "broadphase/hgrid_linked.hpp"
 #include "broadphase/hgrid_optimiser.hpp"
 #include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
@@ -51,6 +52,7 @@ constexpr Entry kBackends[] = {
     {"sap", &make<SweepAndPrune>},
     {"lbvh", &make<Lbvh>},
     {"aabb-tree", &make<AabbTree>},
+    {"hgrid-linked", &make<HGridLinked>},
 #if POLYDEM_WITH_CGAL
     {"cgal-box", &make<CgalBox>},
     {"delaunay", &make<Delaunay>},

@@ -1,6 +1,6 @@
 // HardSphereSystem, part: bounding neighbourhoods and near-neighbour lists (Donev 2006, thesis, §3.2.4):
 // global rebuilds through the shared broad phase, Morton renumbering, the skin rule and its adaptation,
-// the flat list storage, and neighbourhood exits answered by hood_grid.hpp.
+// the flat list storage, and neighbourhood exits answered by the exit index (SystemOptions::exitIndex).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -112,22 +112,17 @@ void HardSphereSystem::rebuildNeighbourhoods() {
     nbRadius_[i] = h.radius;
     nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
   }
-  hoodGrid_.build(box_, nbCentre_, nbRadius_);
+  const SphereView view{nbCentre_, nbRadius_};
+  exits_->build(view, box_, 0.0);
   if (total_.rebuilds == 0) {
     // The first lists come from the shared broad phase; later rebuilds query the exit index, whose
     // predicate is the broad phase's (the same sorted lists, so the same trajectory), because the HGrid
     // re-optimises its levels at every build: on uniform radius omega = 100 (N = 2000) one build cost as
     // much as 60,000 collisions' worth of instructions (issue 24 profile, docs/benchmarks/edmd/).
-    const SphereView view{nbCentre_, nbRadius_};
     broad_->build(view, box_, 0.0);
     broad_->findPairs(view, pairScratch_);
   } else {
-    pairScratch_.clear();
-    for (Index i = 0; i < n; ++i) {
-      hoodGrid_.overlapping(i, scratch_);
-      for (Index j : scratch_)
-        if (j > i) pairScratch_.push_back({i, j});
-    }
+    exits_->findPairs(view, pairScratch_);
   }
   for (Hood& h : hood_) h.size = 0;
   for (const broadphase::Pair& p : pairScratch_) {
@@ -256,8 +251,9 @@ void HardSphereSystem::refreshNeighbourhood(Index i) {
   }
   for (int k = 0; k < 3; ++k) hood.centre[k] = s.x[k];
   nbCentre_.col(i) = Eigen::Vector3d(s.x[0], s.x[1], s.x[2]);
-  hoodGrid_.move(i, s.x);
-  hoodGrid_.overlapping(i, scratch_);
+  const SphereView view{nbCentre_, nbRadius_};
+  exits_->update(view, std::span<const Index>(&i, 1));
+  exits_->findNeighbours(view, i, 0.0, scratch_);
   // Reverse entries: drop i from lists it left, add it to lists it entered (both lists sorted).
   const std::span<const Index> old = neighboursOf(i);
   added_.clear();

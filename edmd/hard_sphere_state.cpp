@@ -164,7 +164,7 @@ void HardSphereSystem::restoreState(const SystemState& state) {
   if (n > 0) {
     const SphereView view{nbCentre_, nbRadius_};
     broad_->build(view, box_, 0.0);
-    hoodGrid_.build(box_, nbCentre_, nbRadius_);
+    exits_->build(view, box_, 0.0);
   }
   resetSchedule();
 }

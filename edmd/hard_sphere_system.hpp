@@ -17,11 +17,13 @@
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
 //   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
-//   list through EDMD's own multi-level grid of neighbourhoods (hood_grid.hpp, O(1) moves, the broad
-//   phase's pair predicate), so the work per event does not depend on the size ratio. The shared broad
-//   phase builds the first lists (build() + findPairs(); its update() is not used); later global rebuilds
-//   query the grid of neighbourhoods for every sphere (the HGrid's level optimiser made each build cost
-//   as much as ~10^4-10^5 collisions on the widest distributions).
+//   list through the exit index, a second broad-phase backend over the neighbourhoods (SystemOptions::
+//   exitIndex, by default hgrid-linked: a multi-level grid of linked cells, O(1) moves), with update() for
+//   the one moved neighbourhood and findNeighbours(), so the work per event does not depend on the size
+//   ratio. The broad phase SystemOptions::broadPhase builds the first lists (build() + findPairs()); later
+//   global rebuilds take findPairs() of the exit index (the HGrid's level optimiser made each build cost
+//   as much as ~10^4-10^5 collisions on the widest distributions). Every complete backend gives the same
+//   sorted lists (one pair predicate), so neither choice changes the trajectory.
 //   rho_i is fixed between global rebuilds ("epochs") so that an exit moves one neighbourhood in the grid;
 //   growth eats into the room rho_i - O_i(t), and when some particle has used half of it everything is
 //   synchronised and rebuilt (O(N), rare: radii grow by ~skin/2 per epoch). The skin is
@@ -56,16 +58,18 @@
 #include "core/box.hpp"
 #include "core/types.hpp"
 #include "edmd/event_queue.hpp"
-#include "edmd/hood_grid.hpp"
 
 namespace polydem::edmd {
 
 struct SystemOptions {
   /// Broad phase that builds the first neighbour lists (registry name). The engine calls only its build()
-  /// and findPairs() (and, for the overlap check of the input, on the spheres themselves); exits and later
-  /// global rebuilds are answered by hood_grid.hpp (the same predicate, so the same lists), so the
-  /// backend's update() is never used and need not be cheap.
+  /// and findPairs() (and, for the overlap check of the input, on the spheres themselves).
   std::string broadPhase = "hgrid-td";
+  /// Broad phase over the neighbourhoods that answers exits (update() with the one re-centred
+  /// neighbourhood, then findNeighbours()) and the later global rebuilds (build() + findPairs()). Any
+  /// complete backend gives the same lists; one whose update() is O(|moved|) keeps an exit O(1):
+  /// hgrid-linked (broadphase/hgrid_linked.hpp). An incomplete backend is refused (ConfigError).
+  std::string exitIndex = "hgrid-linked";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
   /// kappa: cap of the skin in units of the smallest radius (wide size distributions).
@@ -405,7 +409,7 @@ class HardSphereSystem {
   Eigen::VectorXd nbRadius_;
   std::vector<Index> added_, removed_;
   std::unique_ptr<broadphase::BroadPhase> broad_;
-  HoodGrid hoodGrid_;  // answers the exits: which neighbourhoods overlap a re-centred one
+  std::unique_ptr<broadphase::BroadPhase> exits_;  // SystemOptions::exitIndex over the neighbourhoods
   std::vector<Index> scratch_;
   std::vector<broadphase::Pair> pairScratch_;
   bool rebuildPending_ = false;

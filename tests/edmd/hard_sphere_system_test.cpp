@@ -233,6 +233,46 @@ TEST(HardSphereSystem, TrajectoryIndependentOfBroadPhase) {
   }
 }
 
+// The exit index (SystemOptions::exitIndex) answers every neighbourhood exit and the later global rebuilds:
+// any complete backend gives the same sorted lists, so the same trajectory bit for bit, on a wide size
+// distribution (many exits) with growth (several global rebuilds).
+TEST(HardSphereSystem, TrajectoryIndependentOfExitIndex) {
+  const Index n = 300;
+  std::vector<double> radii(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) radii[static_cast<std::size_t>(i)] = 1.0 / std::sqrt(1.0 - 0.96 * (i + 0.5) / n);
+  const Configuration c = randomPacking(n, 0.3, 23, radii);
+  const Eigen::Matrix3Xd v = randomVelocities(n, 23);
+  Eigen::Matrix3Xd reference;
+  std::int64_t referenceExits = 0;
+  for (const char* backend : {"hgrid-linked", "brute", "linked-cell", "hgrid-td", "lbvh"}) {
+    SCOPED_TRACE(backend);
+    SystemOptions options;
+    options.exitIndex = backend;
+    HardSphereSystem system(c.box, c.position, c.radius, v, options);
+    system.setGrowthRate(0.01);
+    for (int block = 0; block < 4; ++block) {
+      system.run(3000);
+      system.setThermalSpeed(1.0);
+    }
+    if (reference.size() == 0) {
+      reference = system.positions();
+      referenceExits = system.counts().exits;
+      EXPECT_GT(system.counts().rebuilds, 1);
+      EXPECT_GT(referenceExits, 100);  // the exits are exercised
+    } else {
+      EXPECT_EQ(system.positions(), reference);
+      EXPECT_EQ(system.counts().exits, referenceExits);
+    }
+  }
+}
+
+TEST(HardSphereSystem, UnknownExitIndexIsAConfigError) {
+  const Configuration c = randomPacking(50, 0.2, 3);
+  SystemOptions options;
+  options.exitIndex = "no-such-backend";
+  EXPECT_THROW(HardSphereSystem(c.box, c.position, c.radius, randomVelocities(50, 3), options), ConfigError);
+}
+
 // Brute-force reference EDMD: every particle at one common time, the next collision found by testing
 // all N^2/2 pairs with the same kinematics (kinematics.hpp) and the same collision rule, no neighbour
 // lists, no heap, no lazy invalidation. Radii O_k(t) = O_k(0) (1 + g t), masses ~ O^3, periodic cube.

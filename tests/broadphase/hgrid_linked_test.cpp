@@ -1,28 +1,31 @@
-// EDMD's own index of neighbourhoods (edmd/hood_grid.hpp): every query equals brute force with the one
-// pair predicate, on periodic and walled boxes, for a wide size distribution, before and after moves.
-#include "edmd/hood_grid.hpp"
+// The linked multi-level grid (broadphase/hgrid_linked.hpp), the event-driven engine's exit index: every
+// query equals brute force with the one pair predicate, on periodic and walled boxes, for a wide size
+// distribution, before and after moves far across cells through update() (the property suite covers the
+// rest, as for every registered backend).
+#include "broadphase/hgrid_linked.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include "broadphase/broad_phase.hpp"
+#include "broadphase/registry.hpp"
 
-namespace polydem::edmd {
+namespace polydem::broadphase {
 namespace {
 
-std::vector<Index> bruteForce(const Box& box, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& r, Index i) {
+std::vector<Index> bruteForce(const Box& box, const Eigen::Matrix3Xd& x, const Eigen::VectorXd& r, Index i,
+                              double reach) {
   std::vector<Index> out;
   for (Index j = 0; j < static_cast<Index>(r.size()); ++j) {
-    if (j != i && broadphase::spheresWithinReach(box, x.col(i).data(), r[i], x.col(j).data(), r[j], 0.0)) {
+    if (j != i && spheresWithinReach(box, x.col(i).data(), r[i], x.col(j).data(), r[j], reach)) {
       out.push_back(j);
     }
   }
   return out;
 }
 
-TEST(HoodGrid, QueriesMatchBruteForceAfterMoves) {
+TEST(HGridLinked, QueriesMatchBruteForceAfterMovesThroughUpdate) {
   for (const Boundary boundary : {Boundary::Periodic, Boundary::Wall}) {
     SCOPED_TRACE(boundary == Boundary::Periodic ? "periodic" : "walls");
     const Box box(Eigen::Vector3d(25.0, 20.0, 30.0), {boundary, boundary, boundary});
@@ -37,16 +40,21 @@ TEST(HoodGrid, QueriesMatchBruteForceAfterMoves) {
     }
     x(0, 0) = 0.0;                                 // on the lower face
     x(1, 1) = std::nextafter(box.length(1), 0.0);  // just below the upper face
-    HoodGrid grid;
-    grid.build(box, x, r);
+    const double skin = 0.3;
+    HGridLinked grid;
+    grid.build(SphereView{x, r}, box, skin);
     std::vector<Index> got;
+    std::vector<Index> moved;
     std::int64_t pairs = 0;
     for (int round = 0; round < 3; ++round) {
-      for (Index i = 0; i < n; ++i) {
-        grid.overlapping(i, got);
-        ASSERT_EQ(got, bruteForce(box, x, r, i)) << "sphere " << i << " round " << round;
-        pairs += static_cast<std::int64_t>(got.size());
+      for (const double reach : {0.0, 0.1, skin}) {
+        for (Index i = 0; i < n; ++i) {
+          grid.findNeighbours(SphereView{x, r}, i, reach, got);
+          ASSERT_EQ(got, bruteForce(box, x, r, i, reach)) << "sphere " << i << " round " << round << " reach " << reach;
+          if (reach == 0.0) pairs += static_cast<std::int64_t>(got.size());
+        }
       }
+      moved.clear();
       // Move a third of the spheres by up to 3 units (across cells), wrapped or clamped into the box.
       for (Index i = round; i < n; i += 3) {
         for (int k = 0; k < 3; ++k) {
@@ -56,12 +64,20 @@ TEST(HoodGrid, QueriesMatchBruteForceAfterMoves) {
           if (c >= length) c = boundary == Boundary::Periodic ? 0.0 : length;
           x(k, i) = c;
         }
-        grid.move(i, x.col(i).data());
+        moved.push_back(i);
       }
+      grid.update(SphereView{x, r}, moved);
     }
     EXPECT_GT(pairs, 3 * n);  // the scene has real overlaps to find
   }
 }
 
+TEST(HGridLinked, IsRegisteredAsACompleteIncrementalBackend) {
+  const auto bp = makeBroadPhase("hgrid-linked");
+  EXPECT_EQ(bp->name(), "hgrid-linked");
+  EXPECT_TRUE(bp->capabilities().complete);
+  EXPECT_TRUE(bp->capabilities().incremental);
+}
+
 }  // namespace
-}  // namespace polydem::edmd
+}  // namespace polydem::broadphase

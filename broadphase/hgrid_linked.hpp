@@ -1,0 +1,75 @@
+#pragma once
+// A multi-level grid whose cells are doubly linked lists, so that moving one sphere is O(1) and update() is
+// O(|moved|) however far the spheres went: the index that answers the event-driven engine's neighbourhood
+// exits (Donev 2006, thesis, §3.4.7, Algorithm 10: which neighbourhoods overlap the re-centred one), and a
+// registered backend like any other, so it runs through the property suite against brute force.
+//
+// Level l holds the spheres with radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least 2 r_max(l) +
+// skin per axis (at most (8 N)^(1/3) per axis, so about 8 N cells per level at most). A query for sphere i
+// visits, on every level, the cells within r_i + r_max(l) + reach of its centre (the top-down search of
+// Ogarko's thesis §2.2.3; Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357); an axis whose range
+// covers all its cells is visited once (no wrapped duplicates), walled axes are clipped. Candidates go
+// through the one pair predicate (spheresWithinReach), so the lists are those of every other backend.
+//
+// Against the shared HGrid (hgrid.hpp): no cost-model optimiser (the levels are fixed powers of two, which
+// costs more pair tests per query on narrow distributions) and no sorted cell storage (a query walks
+// linked lists: more cache misses per visited sphere), but a move never leaves the structure, where the
+// HGrid parks every sphere that changed cell in an overflow hash until its next build. In an event-driven
+// run every neighbourhood moves a few times between global rebuilds, so the HGrid's queries ran mostly
+// through that hash (mono N = 10,000, phi 0.5: 28% of the time in exits; uniform volume omega = 50: 65%).
+//
+// The index keeps its own packed copy of the centres and radii (x, y, z, r per sphere): queries use the
+// positions given at build() / update(), and update() reads the moved spheres' new centres from the view.
+// Radii must not change between builds.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "broadphase/broad_phase.hpp"
+
+namespace polydem::broadphase {
+
+class HGridLinked final : public BroadPhase {
+ public:
+  std::string_view name() const override { return "hgrid-linked"; }
+  Capabilities capabilities() const override { return {.complete = true, .incremental = true}; }
+  void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
+  void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;
+  std::size_t memoryBytes() const override;
+  std::string describe() const override;
+
+  /// Sphere i now has its centre at x (inside the box; radius unchanged). O(1). What update() does for each
+  /// moved sphere, without the virtual call.
+  void move(Index i, const double x[3]);
+  /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending, from the index's own copy of the
+  /// positions. Clears `out` first.
+  void neighbours(Index i, double reach, std::vector<Index>& out) const;
+
+ protected:
+  void doBuild(const SphereView& spheres) override;
+  void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
+
+ private:
+  struct Level {
+    double rmax = 0.0;
+    std::array<double, 3> inverseCell{};
+    std::array<std::int32_t, 3> n{};
+    std::vector<Index> head;  // first sphere of each cell, -1 if empty
+  };
+  template <bool kCount>
+  void query(Index i, double reach, std::vector<Index>& out) const;
+  std::int64_t cellOf(const Level& lv, const double x[3]) const;
+  void link(Index i);
+  void unlink(Index i);
+
+  std::array<bool, 3> periodic_{};
+  std::array<double, 3> length_{};
+  std::vector<Level> levels_;
+  std::vector<double> xyzr_;  // 4 per sphere: centre and radius, packed for the query loop
+  std::vector<std::uint8_t> level_;
+  std::vector<std::int64_t> cell_;
+  std::vector<Index> next_, prev_;
+  mutable std::vector<Index> scratch_;  // findPairs' per-sphere query, kept so steady-state calls do not allocate
+};
+
+}  // namespace polydem::broadphase
