@@ -547,60 +547,56 @@ void DistributedDem::remapHistories(std::vector<double>& pool, std::vector<doubl
 
 // ---- one step -------------------------------------------------------------------------------------------
 
-double DistributedDem::openingKickAndDrift() {
-  // The arithmetic of dem_simulation.cpp's halfKick<true, kPredict>, particle by particle.
-  const double half = 0.5 * dt_;
-  const double dt = dt_;
-  double* v = v_.data();
-  double* x = x_.data();
-  double* vp = vp_.data();
-  const double* f = f_.data();
-  const double* ref = ref_.data();
+namespace {
+
+// The arithmetic of dem_simulation.cpp's halfKick<kDrift, kPredict>, particle by particle over the owned
+// slots (ascending, so the arrays stream); the flags are template parameters so the inner loop has no
+// branch. Returns the largest squared displacement from the reference positions (kDrift) or 0.
+template <bool kDrift, bool kPredict>
+double kickOwned(const std::vector<Index>& owned, double dt, double* __restrict v, const double* __restrict f,
+                 const double* __restrict inverse, double* __restrict predicted, double* __restrict x,
+                 const double* __restrict ref) {
+  const double half = 0.5 * dt;
   double maxSq = 0.0;
-  for (const Index i : ownedSlots_) {
-    const double h = half * invm_[i];
+  for (const Index i : owned) {
+    const double h = half * inverse[i];
     double dsq = 0.0;
     for (int c = 0; c < 3; ++c) {
       const Index a = 3 * i + c;
       v[a] += h * f[a];
-      x[a] += dt * v[a];
-      if (predict_) vp[a] = v[a] + h * f[a];
-      const double dx = x[a] - ref[a];
-      dsq += dx * dx;
-    }
-    maxSq = std::max(maxSq, dsq);
-  }
-  if (kernel_.rotation) {
-    double* w = w_.data();
-    double* wp = wp_.data();
-    const double* tq = tq_.data();
-    for (const Index i : ownedSlots_) {
-      const double h = half * invI_[i];
-      for (int c = 0; c < 3; ++c) {
-        const Index a = 3 * i + c;
-        w[a] += h * tq[a];
-        if (predict_) wp[a] = w[a] + h * tq[a];
+      if constexpr (kDrift) x[a] += dt * v[a];
+      if constexpr (kPredict) predicted[a] = v[a] + h * f[a];
+      if constexpr (kDrift) {
+        const double dx = x[a] - ref[a];
+        dsq += dx * dx;
       }
+    }
+    if constexpr (kDrift) maxSq = std::max(maxSq, dsq);
+  }
+  return maxSq;
+}
+
+}  // namespace
+
+double DistributedDem::openingKickAndDrift() {
+  const double maxSq = predict_ ? kickOwned<true, true>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(),
+                                                        vp_.data(), x_.data(), ref_.data())
+                                : kickOwned<true, false>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(), nullptr,
+                                                         x_.data(), ref_.data());
+  if (kernel_.rotation) {
+    if (predict_) {
+      kickOwned<false, true>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), wp_.data(), nullptr, nullptr);
+    } else {
+      kickOwned<false, false>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), nullptr, nullptr, nullptr);
     }
   }
   return maxSq;
 }
 
 void DistributedDem::closingKick() {
-  const double half = 0.5 * dt_;
-  double* v = v_.data();
-  const double* f = f_.data();
-  for (const Index i : ownedSlots_) {
-    const double h = half * invm_[i];
-    for (int c = 0; c < 3; ++c) v[3 * i + c] += h * f[3 * i + c];
-  }
+  kickOwned<false, false>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(), nullptr, nullptr, nullptr);
   if (kernel_.rotation) {
-    double* w = w_.data();
-    const double* tq = tq_.data();
-    for (const Index i : ownedSlots_) {
-      const double h = half * invI_[i];
-      for (int c = 0; c < 3; ++c) w[3 * i + c] += h * tq[3 * i + c];
-    }
+    kickOwned<false, false>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), nullptr, nullptr, nullptr);
   }
 }
 

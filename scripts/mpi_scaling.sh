@@ -9,7 +9,9 @@
 #   scripts/mpi_scaling.sh [BUILD_DIR]                     (default build/)
 #   COUNTS="50000 200000" STEPS="3000 600" ROUNDS=3 scripts/mpi_scaling.sh
 # Environment: COUNTS (default "50000 200000 1000000"), STEPS (steps per count, same order; default
-# "3000 600 150"), ROUNDS (3), OUT (directory for the JSON files and scaling.csv, default a temporary one).
+# "3000 600 150"), ROUNDS (3), OUT (directory for the JSON files and scaling.csv, default a temporary one),
+# STARTS=1: place each N once (random sequential addition, a minute at 10^6) into OUT/start_N.txt and start
+# every run from that file (the same state and velocities; the set-up then reads a file instead of placing).
 # Prints one line per count: the three medians and the speed-ups over one thread.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -27,11 +29,28 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 scene="$root/examples/relax_uv10.toml"
 cd "$out"  # the scene's relative outputs land here, never in the source tree
 
+# The scene reading a start file: relax_uv10.toml without the keys that only apply when generating.
+file_scene() {
+  awk -v file="$1" '
+    /^\[/ { section = $0 }
+    section == "[particles]" && /^count *=/ { print "file = \"" file "\""; next }
+    section == "[particles]" && /^(distribution|rmin|omega|sampling|packing_fraction|seed) *=/ { next }
+    section == "[velocities]" && /^(initial|overlap|seed) *=/ { next }
+    section == "[box]" && /^aspect *=/ { next }
+    { print }' "$scene"
+}
+
 for c in "${!counts[@]}"; do
   n=${counts[$c]}
   s=${steps[$c]}
   common=(relax "$scene" -q --set "particles.count=$n" --set "run.steps=$s" --set "output.final=$out/final.txt"
     --set 'output.timeseries=""')
+  if [[ -n "${STARTS:-}" ]]; then
+    [[ -s $out/start_$n.txt ]] || "$polydem" "${common[@]}" --set run.steps=0 --set "output.final=$out/start_$n.txt" >/dev/null
+    file_scene "$out/start_$n.txt" >"$out/scene_$n.toml"
+    common=(relax "$out/scene_$n.toml" -q --set "run.steps=$s" --set "output.final=$out/final.txt"
+      --set 'output.timeseries=""')
+  fi
   for r in $(seq "$rounds"); do
     taskset -c 1 "$polydem" "${common[@]}" --summary-json "$out/threads1_${n}_$r.json" >/dev/null
     "$polydem" "${common[@]}" --set run.threads=2 --summary-json "$out/threads2_${n}_$r.json" >/dev/null
