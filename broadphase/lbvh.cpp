@@ -26,6 +26,16 @@ inline int commonPrefix(const std::vector<std::uint64_t>& key, Index m, Index i,
 }
 }  // namespace
 
+float Lbvh::roundDown(double v) {
+  const float f = static_cast<float>(v);
+  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+}
+
+float Lbvh::roundUp(double v) {
+  const float f = static_cast<float>(v);
+  return static_cast<double>(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+}
+
 void Lbvh::setLeafSize(int size) {
   if (size < 1) throw ConfigError(fmt::format("lbvh: leaf size must be >= 1, got {}", size));
   leafSize_ = size;
@@ -37,25 +47,32 @@ void Lbvh::setRebuildFactor(double factor) {
 }
 
 double Lbvh::nodeCost(const Node& n) const {
-  const double h = 2.0 * (n.rmax + minRadius_ + skin_);
-  return (n.hi[0] - n.lo[0] + h) * (n.hi[1] - n.lo[1] + h) * (n.hi[2] - n.lo[2] + h);
+  // A small sphere's query box (r_min + skin around its centre) meets the node's box when the centre
+  // lies in the box dilated by r_min + skin: V times the expected visits of such a query.
+  const double h = 2.0 * (minRadius_ + skin_);
+  const double dx = static_cast<double>(n.hi[0]) - n.lo[0], dy = static_cast<double>(n.hi[1]) - n.lo[1],
+               dz = static_cast<double>(n.hi[2]) - n.lo[2];
+  return (dx + h) * (dy + h) * (dz + h);
 }
 
 void Lbvh::boundLeaf(Index node) {
   Node& nd = nodes_[static_cast<std::size_t>(node)];
   const Index first = -1 - nd.right;
+  double lo[3], hi[3];
   for (int k = 0; k < 3; ++k) {
-    nd.lo[k] = std::numeric_limits<double>::infinity();
-    nd.hi[k] = -std::numeric_limits<double>::infinity();
+    lo[k] = std::numeric_limits<double>::infinity();
+    hi[k] = -std::numeric_limits<double>::infinity();
   }
-  nd.rmax = 0.0;
   for (Index t = first; t < nd.end; ++t) {
     const double* p = packed_.data() + 4 * static_cast<std::ptrdiff_t>(t);
     for (int k = 0; k < 3; ++k) {
-      nd.lo[k] = std::min(nd.lo[k], p[k]);
-      nd.hi[k] = std::max(nd.hi[k], p[k]);
+      lo[k] = std::min(lo[k], p[k] - p[3]);
+      hi[k] = std::max(hi[k], p[k] + p[3]);
     }
-    nd.rmax = std::max(nd.rmax, p[3]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    nd.lo[k] = roundDown(lo[k]);
+    nd.hi[k] = roundUp(hi[k]);
   }
 }
 
@@ -67,7 +84,6 @@ void Lbvh::boundInternal(Index node) {
     nd.lo[k] = std::min(a.lo[k], b.lo[k]);
     nd.hi[k] = std::max(a.hi[k], b.hi[k]);
   }
-  nd.rmax = std::max(a.rmax, b.rmax);
   nd.end = b.end;
 }
 
@@ -196,16 +212,18 @@ void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   if (quality_ > rebuildFactor_ * builtQuality_) doBuild(spheres);
 }
 
-void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& out) const {
+void Lbvh::imagesOf(const double* lo, const double* hi, Images& out) const {
+  const Node& root = nodes_.front();
   double shifts[3][3];
   int count[3];
   for (int k = 0; k < 3; ++k) {
     count[k] = 0;
     shifts[k][count[k]++] = 0.0;
     if (!box_.periodic(k)) continue;
-    // Image at x + L reaches spheres near L; image at x - L reaches spheres near 0.
-    if (lo[k] - radius < 0.0) shifts[k][count[k]++] = box_.length(k);
-    if (hi[k] + radius > box_.length(k)) shifts[k][count[k]++] = -box_.length(k);
+    // The image at +L meets boxes near L, the image at -L boxes near 0: only where the root's box is.
+    const double length = box_.length(k);
+    if (lo[k] + length <= root.hi[k]) shifts[k][count[k]++] = length;
+    if (hi[k] - length >= root.lo[k]) shifts[k][count[k]++] = -length;
   }
   out.count = 0;
   for (int a = 0; a < count[0]; ++a)
@@ -218,82 +236,60 @@ void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& o
       }
 }
 
-template <bool kCount, class Visit>
-void Lbvh::query(const double* x, const double* shift, double ri, double reach, Index minSlot, std::uint64_t& tests,
-                 std::uint64_t& visits, Visit&& visit) const {
-  const double q[3] = {x[0] + shift[0], x[1] + shift[1], x[2] + shift[2]};
-  const double* p = packed_.data();
-  const double base = ri + reach + tolerance_;
-  Index* stack = stack_.data();
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Index id = stack[--top];
-    const Node& nd = nodes_[static_cast<std::size_t>(id)];
-    if (nd.end <= minSlot) continue;  // every sphere below comes before the query in Morton order
-    if constexpr (kCount) ++visits;
-    double d2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = std::max(std::max(nd.lo[k] - q[k], q[k] - nd.hi[k]), 0.0);
-      d2 += d * d;
-    }
-    const double limit = base + nd.rmax;
-    if (d2 > limit * limit) continue;
-    if (isLeaf(nd)) {
-      for (Index t = std::max(-1 - nd.right, minSlot); t < nd.end; ++t) {
-        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
-        if constexpr (kCount) ++tests;
-        if (spheresWithinReach(box_, x, ri, pt, pt[3], reach)) visit(t);
-      }
-    } else {
-      stack[top++] = nd.right;
-      stack[top++] = id + 1;
-    }
+void Lbvh::toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q) {
+  for (int k = 0; k < 3; ++k) {
+    q.lo[k] = roundDown(lo[k] + shift[k]);
+    q.hi[k] = roundUp(hi[k] + shift[k]);
   }
 }
 
-void Lbvh::candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const {
-  double lo[3], hi[3];
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = group.lo[k] + shift[k];
-    hi[k] = group.hi[k] + shift[k];
-  }
-  const double base = group.rmax + skin_ + tolerance_;
+std::uint64_t Lbvh::candidateLeaves(const QueryBox& q, Index minEnd) const {
+  // Children are tested before they are pushed, so every popped node is known to meet the query;
+  // the left child (id + 1) is descended into directly. Nodes ending at or before minEnd hold only
+  // leaves at or before the querying leaf in Morton order and are cut whole.
+  std::uint64_t visits = 1;
+  const Node* nodes = nodes_.data();
+  if (!(nodes[0].end > minEnd && overlaps(nodes[0], q))) return visits;
   Index* stack = stack_.data();
   int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Index id = stack[--top];
-    const Node& nd = nodes_[static_cast<std::size_t>(id)];
-    if (nd.end <= minEnd) continue;  // at or before the group's own leaf in Morton order
-    ++visits;
-    double d2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = std::max(std::max(nd.lo[k] - hi[k], lo[k] - nd.hi[k]), 0.0);
-      d2 += d * d;
-    }
-    const double limit = base + nd.rmax;
-    if (d2 > limit * limit) continue;
-    if (isLeaf(nd)) {
+  Index id = 0;
+  for (;;) {
+    const Node& nd = nodes[id];
+    if (nd.right < 0) {
       candidates_.push_back(id);
     } else {
-      stack[top++] = nd.right;
-      stack[top++] = id + 1;
+      const Index l = id + 1, r = nd.right;
+      visits += 2;
+      const bool goLeft = nodes[l].end > minEnd && overlaps(nodes[l], q);
+      const bool goRight = overlaps(nodes[r], q);  // its end is the parent's, > minEnd
+      if (goLeft) {
+        if (goRight) stack[top++] = r;
+        id = l;
+        continue;
+      }
+      if (goRight) {
+        id = r;
+        continue;
+      }
     }
+    if (top == 0) break;
+    id = stack[--top];
   }
+  return visits;
 }
 
 template <bool kCount>
 void Lbvh::pairsImpl(std::vector<Pair>& out) const {
   const Index n = static_cast<Index>(sorted_.size());
   const double* p = packed_.data();
-  const double rootRadius = nodes_.front().rmax;
+  const double dilation = skin_ + tolerance_;
   std::uint64_t tests = 0, visits = 0;
   auto emit = [&](Index s, Index t) {
     const Index i = sorted_[static_cast<std::size_t>(s)], j = sorted_[static_cast<std::size_t>(t)];
     out.push_back(i < j ? Pair{i, j} : Pair{j, i});
   };
   Images images;
+  QueryBox sphereBox[27];
   for (const Index leafId : leafNode_) {
     const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
     const Index first = -1 - leaf.right, end = leaf.end;
@@ -306,33 +302,38 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
       }
     }
     if (end == n) continue;
-    imagesOf(leaf.lo, leaf.hi, leaf.rmax + rootRadius + skin_ + tolerance_, images);
+    // The leaf's box (its spheres' boxes) dilated by the skin meets every box of a later sphere that
+    // one of its spheres reaches.
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = static_cast<double>(leaf.lo[k]) - dilation;
+      hi[k] = static_cast<double>(leaf.hi[k]) + dilation;
+    }
+    imagesOf(lo, hi, images);
     candidates_.clear();
-    for (int k = 0; k < images.count; ++k) candidateLeaves(leaf, images.shift[k], end, visits);
+    for (int k = 0; k < images.count; ++k) {
+      QueryBox q;
+      toQuery(lo, hi, images.shift[k], q);
+      visits += candidateLeaves(q, end);
+    }
     if (images.count > 1) {
       // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
       std::sort(candidates_.begin(), candidates_.end());
       candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
     }
+    if (candidates_.empty()) continue;
     for (Index s = first; s < end; ++s) {
       const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
-      const double base = ps[3] + skin_ + tolerance_;
+      const double reach = ps[3] + dilation;
+      const double slo[3] = {ps[0] - reach, ps[1] - reach, ps[2] - reach};
+      const double shi[3] = {ps[0] + reach, ps[1] + reach, ps[2] + reach};
+      for (int k = 0; k < images.count; ++k) toQuery(slo, shi, images.shift[k], sphereBox[k]);
       for (const Index c : candidates_) {
         const Node& cn = nodes_[static_cast<std::size_t>(c)];
-        // The sphere's own bound on the candidate leaf, through any of the images.
+        // The sphere's own box against the candidate leaf's, through any of the images.
         if constexpr (kCount) ++visits;
-        bool near = false;
-        for (int k = 0; k < images.count && !near; ++k) {
-          const double* shift = images.shift[k];
-          double d2 = 0.0;
-          for (int a = 0; a < 3; ++a) {
-            const double q = ps[a] + shift[a];
-            const double d = std::max(std::max(cn.lo[a] - q, q - cn.hi[a]), 0.0);
-            d2 += d * d;
-          }
-          const double limit = base + cn.rmax;
-          near = d2 <= limit * limit;
-        }
+        bool near = overlaps(cn, sphereBox[0]);
+        for (int k = 1; k < images.count && !near; ++k) near = overlaps(cn, sphereBox[k]);
         if (!near) continue;
         for (Index t = -1 - cn.right; t < cn.end; ++t) {
           const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
@@ -368,13 +369,23 @@ void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<
   }
   const Index slot = slotOf_[static_cast<std::size_t>(i)];
   const double* x = packed_.data() + 4 * static_cast<std::ptrdiff_t>(slot);
+  const double d = x[3] + reach + tolerance_;
+  const double lo[3] = {x[0] - d, x[1] - d, x[2] - d}, hi[3] = {x[0] + d, x[1] + d, x[2] + d};
   Images images;
-  imagesOf(x, x, x[3] + nodes_.front().rmax + reach + tolerance_, images);
-  std::uint64_t tests = 0, visits = 0;
+  imagesOf(lo, hi, images);
+  candidates_.clear();
   for (int k = 0; k < images.count; ++k) {
-    query<false>(x, images.shift[k], x[3], reach, 0, tests, visits, [&](Index t) {
-      if (t != slot) out.push_back(sorted_[static_cast<std::size_t>(t)]);
-    });
+    QueryBox q;
+    toQuery(lo, hi, images.shift[k], q);
+    candidateLeaves(q, -1);
+  }
+  for (const Index c : candidates_) {
+    const Node& cn = nodes_[static_cast<std::size_t>(c)];
+    for (Index t = -1 - cn.right; t < cn.end; ++t) {
+      const double* pt = packed_.data() + 4 * static_cast<std::ptrdiff_t>(t);
+      if (t != slot && spheresWithinReach(box_, x, x[3], pt, pt[3], reach))
+        out.push_back(sorted_[static_cast<std::size_t>(t)]);
+    }
   }
   std::sort(out.begin(), out.end());
   if (images.count > 1) out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -417,17 +428,16 @@ void Lbvh::validate(const SphereView& spheres) const {
       for (int k = 0; k < 3; ++k) {
         if (c.lo[k] < nd.lo[k] || c.hi[k] > nd.hi[k]) return false;
       }
-      return c.rmax <= nd.rmax;
+      return true;
     };
     if (isLeaf(nd)) {
       for (Index t = -1 - nd.right; t < nd.end; ++t) {
         ++covered[static_cast<std::size_t>(t)];
         for (int k = 0; k < 3; ++k) {
-          if (packed_(k, t) < nd.lo[k] || packed_(k, t) > nd.hi[k]) {
-            throw std::logic_error(fmt::format("lbvh: slot {} outside its leaf box", t));
+          if (packed_(k, t) - packed_(3, t) < nd.lo[k] || packed_(k, t) + packed_(3, t) > nd.hi[k]) {
+            throw std::logic_error(fmt::format("lbvh: sphere of slot {} outside its leaf box", t));
           }
         }
-        if (packed_(3, t) > nd.rmax) throw std::logic_error(fmt::format("lbvh: leaf radius below slot {}", t));
       }
     } else {
       const Node& a = nodes_[p + 1];

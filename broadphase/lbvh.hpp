@@ -65,32 +65,39 @@ class Lbvh final : public BroadPhase {
   void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
 
  private:
-  struct Node {
-    double lo[3], hi[3];  // box of the centres below (m)
-    double rmax;          // largest radius below (m)
-    Index right;          // internal: right child (left child is this + 1); leaf: -1 - first slot
-    Index end;            // one past the last slot below
+  // 32 bytes: the box of the spheres below (centre -+ radius), in float rounded outward so no pair
+  // is lost, and the tree links.
+  struct alignas(32) Node {
+    float lo[3], hi[3];  // box of the spheres below (m)
+    Index right;         // internal: right child (left child is this + 1); leaf: -1 - first slot
+    Index end;           // one past the last slot below
   };
-  bool isLeaf(const Node& n) const { return n.right < 0; }
+  struct QueryBox {
+    float lo[3], hi[3];
+  };
+  static bool isLeaf(const Node& n) { return n.right < 0; }
+  static bool overlaps(const Node& n, const QueryBox& q) {
+    return (n.lo[0] <= q.hi[0]) & (n.hi[0] >= q.lo[0]) & (n.lo[1] <= q.hi[1]) & (n.hi[1] >= q.lo[1]) &
+           (n.lo[2] <= q.hi[2]) & (n.hi[2] >= q.lo[2]);
+  }
+  static float roundDown(double v);
+  static float roundUp(double v);
+  /// The box [lo, hi] shifted by `shift` and rounded outward to float.
+  static void toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q);
   void boundLeaf(Index node);
   void boundInternal(Index node);
   double nodeCost(const Node& n) const;
   void refitAll();
-  /// Periodic images of a query box [lo, hi] (a centre: lo = hi) that may reach spheres within
-  /// `radius` of it: shifts[k] for k < count (the first is the unshifted query).
+  /// Periodic images of a query box [lo, hi] that may meet the root's box: shifts[k] for k < count
+  /// (the first is the unshifted query).
   struct Images {
     double shift[27][3];
     int count;
   };
-  void imagesOf(const double* lo, const double* hi, double radius, Images& out) const;
-  /// Leaves after slot range end `minEnd` whose box may hold a sphere within reach of a sphere of
-  /// `group` (imaged by `shift`): appended to candidates_.
-  void candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const;
-  /// Traverse for the query centre x (original coordinates) of radius ri imaged by `shift`; visit(t)
-  /// is called for every slot t >= minSlot whose sphere is within `reach` (minimum image).
-  template <bool kCount, class Visit>
-  void query(const double* x, const double* shift, double ri, double reach, Index minSlot, std::uint64_t& tests,
-             std::uint64_t& visits, Visit&& visit) const;
+  void imagesOf(const double* lo, const double* hi, Images& out) const;
+  /// Leaves whose box meets q, among those after slot `minEnd` (-1: all), appended to candidates_ in
+  /// pre-order; returns the node box tests made.
+  std::uint64_t candidateLeaves(const QueryBox& q, Index minEnd) const;
   template <bool kCount>
   void pairsImpl(std::vector<Pair>& out) const;
 
