@@ -26,16 +26,6 @@ inline int commonPrefix(const std::vector<std::uint64_t>& key, Index m, Index i,
 }
 }  // namespace
 
-float Lbvh::roundDown(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) > v ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-}
-
-float Lbvh::roundUp(double v) {
-  const float f = static_cast<float>(v);
-  return static_cast<double>(f) < v ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
-}
-
 void Lbvh::setLeafSize(int size) {
   if (size < 1) throw ConfigError(fmt::format("lbvh: leaf size must be >= 1, got {}", size));
   leafSize_ = size;
@@ -103,6 +93,9 @@ void Lbvh::doBuild(const SphereView& spheres) {
   ++rebuilds_;
   const Index n = spheres.count();
   tolerance_ = 1e-12 * (box_.lengths().maxCoeff() + 4.0 * maxRadius_ + 2.0 * skin_);
+  // Every value rounded to float (a box bound, possibly imaged) is below M = 2 L + 4 r_max + 4 skin in
+  // magnitude, where rounding to nearest errs by at most 2^-24 M: a margin of 2^-22 M rounds outward.
+  floatMargin_ = 0x1p-22 * (2.0 * box_.lengths().maxCoeff() + 4.0 * maxRadius_ + 4.0 * skin_);
   sorted_.resize(static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   packed_.resize(4, n);
@@ -236,7 +229,7 @@ void Lbvh::imagesOf(const double* lo, const double* hi, Images& out) const {
       }
 }
 
-void Lbvh::toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q) {
+void Lbvh::toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q) const {
   for (int k = 0; k < 3; ++k) {
     q.lo[k] = roundDown(lo[k] + shift[k]);
     q.hi[k] = roundUp(hi[k] + shift[k]);
@@ -283,45 +276,98 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
   const Index n = static_cast<Index>(sorted_.size());
   const double* p = packed_.data();
   const double dilation = skin_ + tolerance_;
+  const double skin = skin_;
   std::uint64_t tests = 0, visits = 0;
   auto emit = [&](Index s, Index t) {
     const Index i = sorted_[static_cast<std::size_t>(s)], j = sorted_[static_cast<std::size_t>(t)];
     out.push_back(i < j ? Pair{i, j} : Pair{j, i});
   };
+  // Without images (the leaf's dilated box meets no image of the root's box) no pair of the leaf's
+  // spheres reaches across a periodic face, and there the plain difference is the minimum image of
+  // every pair within reach (|d_k| <= 2 r_max + skin <= L_k / 2): the direct test is exact.
+  auto directPair = [&](const double* a, const double* b) {
+    const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    const double limit = (a[3] + b[3]) + skin;
+    return dx * dx + dy * dy + dz * dz <= limit * limit;
+  };
   Images images;
   QueryBox sphereBox[27];
+  constexpr int kLanes = 8;
+  alignas(32) float laneLo[3][kLanes], laneHi[3][kLanes];
   for (const Index leafId : leafNode_) {
     const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
     const Index first = -1 - leaf.right, end = leaf.end;
-    for (Index s = first; s < end; ++s) {  // pairs inside the leaf
-      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
-      for (Index t = s + 1; t < end; ++t) {
-        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
-        if constexpr (kCount) ++tests;
-        if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
-      }
-    }
-    if (end == n) continue;
-    // The leaf's box (its spheres' boxes) dilated by the skin meets every box of a later sphere that
-    // one of its spheres reaches.
+    // The leaf's box (its spheres' boxes) dilated by the skin meets every box of a sphere that one of
+    // its spheres reaches.
     double lo[3], hi[3];
     for (int k = 0; k < 3; ++k) {
       lo[k] = static_cast<double>(leaf.lo[k]) - dilation;
       hi[k] = static_cast<double>(leaf.hi[k]) + dilation;
     }
     imagesOf(lo, hi, images);
+    const bool direct = images.count == 1;
+    for (Index s = first; s < end; ++s) {  // pairs inside the leaf
+      const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+      for (Index t = s + 1; t < end; ++t) {
+        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+        if constexpr (kCount) ++tests;
+        if (direct ? directPair(ps, pt) : spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
+      }
+    }
+    if (end == n) continue;
     candidates_.clear();
     for (int k = 0; k < images.count; ++k) {
       QueryBox q;
       toQuery(lo, hi, images.shift[k], q);
       visits += candidateLeaves(q, end);
     }
-    if (images.count > 1) {
-      // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
-      std::sort(candidates_.begin(), candidates_.end());
-      candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
-    }
     if (candidates_.empty()) continue;
+    if (direct) {
+      // Up to kLanes spheres of the leaf at once: their boxes against each candidate leaf's box as
+      // one vector of tests, then the pair tests for the lanes that met it.
+      for (Index s0 = first; s0 < end; s0 += kLanes) {
+        const int lanes = static_cast<int>(std::min<Index>(kLanes, end - s0));
+        for (int l = 0; l < kLanes; ++l) {
+          if (l < lanes) {
+            const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s0 + l);
+            const double reach = ps[3] + dilation;
+            for (int k = 0; k < 3; ++k) {
+              laneLo[k][l] = roundDown(ps[k] - reach);
+              laneHi[k][l] = roundUp(ps[k] + reach);
+            }
+          } else {
+            for (int k = 0; k < 3; ++k) {  // an empty box meets nothing
+              laneLo[k][l] = std::numeric_limits<float>::infinity();
+              laneHi[k][l] = -std::numeric_limits<float>::infinity();
+            }
+          }
+        }
+        for (const Index c : candidates_) {
+          const Node& cn = nodes_[static_cast<std::size_t>(c)];
+          if constexpr (kCount) visits += static_cast<std::uint64_t>(lanes);
+          unsigned mask = 0;
+          for (int l = 0; l < kLanes; ++l) {
+            const bool meet = (cn.lo[0] <= laneHi[0][l]) & (cn.hi[0] >= laneLo[0][l]) & (cn.lo[1] <= laneHi[1][l]) &
+                              (cn.hi[1] >= laneLo[1][l]) & (cn.lo[2] <= laneHi[2][l]) & (cn.hi[2] >= laneLo[2][l]);
+            mask |= static_cast<unsigned>(meet) << l;
+          }
+          while (mask != 0) {
+            const Index s = s0 + std::countr_zero(mask);
+            mask &= mask - 1;
+            const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+            for (Index t = -1 - cn.right; t < cn.end; ++t) {
+              const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+              if constexpr (kCount) ++tests;
+              if (directPair(ps, pt)) emit(s, t);
+            }
+          }
+        }
+      }
+      continue;
+    }
+    // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
+    std::sort(candidates_.begin(), candidates_.end());
+    candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
     for (Index s = first; s < end; ++s) {
       const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
       const double reach = ps[3] + dilation;
@@ -338,7 +384,7 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
         for (Index t = -1 - cn.right; t < cn.end; ++t) {
           const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
           if constexpr (kCount) ++tests;
-          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
         }
       }
     }

@@ -80,10 +80,11 @@ class Lbvh final : public BroadPhase {
     return (n.lo[0] <= q.hi[0]) & (n.hi[0] >= q.lo[0]) & (n.lo[1] <= q.hi[1]) & (n.hi[1] >= q.lo[1]) &
            (n.lo[2] <= q.hi[2]) & (n.hi[2] >= q.lo[2]);
   }
-  static float roundDown(double v);
-  static float roundUp(double v);
+  /// Float bounds at or below / above v (v - or + a margin that exceeds the rounding error).
+  float roundDown(double v) const { return static_cast<float>(v - floatMargin_); }
+  float roundUp(double v) const { return static_cast<float>(v + floatMargin_); }
   /// The box [lo, hi] shifted by `shift` and rounded outward to float.
-  static void toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q);
+  void toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q) const;
   void boundLeaf(Index node);
   void boundInternal(Index node);
   double nodeCost(const Node& n) const;
@@ -105,7 +106,8 @@ class Lbvh final : public BroadPhase {
   double rebuildFactor_ = 1.5;
   std::uint64_t rebuilds_ = 0;
   double quality_ = 0.0, builtQuality_ = 0.0;
-  double tolerance_ = 0.0;  // absolute slack on box tests (m): rounding of imaged coordinates
+  double tolerance_ = 0.0;    // absolute slack on box tests (m): rounding of imaged coordinates
+  double floatMargin_ = 0.0;  // added outward before rounding a bound to float (m)
   int depth_ = 0;
   std::vector<Node> nodes_;      // pre-order; root at 0
   std::vector<Index> parent_;    // per node (-1 for the root)
