@@ -234,6 +234,7 @@ void Lbvh::toQuery(const double* lo, const double* hi, const double* shift, Quer
     q.lo[k] = roundDown(lo[k] + shift[k]);
     q.hi[k] = roundUp(hi[k] + shift[k]);
   }
+  q.lo[3] = q.hi[3] = 0.0f;
 }
 
 std::uint64_t Lbvh::candidateLeaves(const QueryBox& q, Index minEnd) const {

@@ -31,6 +31,9 @@
 // tune it). `auto` does not consider trees: no validated model of their cost exists yet
 // (docs/benchmarks/backends/README.md).
 #include <cstdint>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
@@ -68,17 +71,25 @@ class Lbvh final : public BroadPhase {
   // 32 bytes: the box of the spheres below (centre -+ radius), in float rounded outward so no pair
   // is lost, and the tree links.
   struct alignas(32) Node {
-    float lo[3], hi[3];  // box of the spheres below (m)
-    Index right;         // internal: right child (left child is this + 1); leaf: -1 - first slot
-    Index end;           // one past the last slot below
+    float lo[3];  // box of the spheres below (m)
+    Index end;    // one past the last slot below
+    float hi[3];
+    Index right;  // internal: right child (left child is this + 1); leaf: -1 - first slot
   };
-  struct QueryBox {
-    float lo[3], hi[3];
+  struct alignas(16) QueryBox {
+    float lo[4], hi[4];  // the fourth lane is not compared
   };
   static bool isLeaf(const Node& n) { return n.right < 0; }
   static bool overlaps(const Node& n, const QueryBox& q) {
+#if defined(__SSE2__)
+    // lo and hi are each one 16-byte load (the fourth lane, end or right, is masked off).
+    const __m128 meet = _mm_and_ps(_mm_cmple_ps(_mm_load_ps(n.lo), _mm_load_ps(q.hi)),
+                                   _mm_cmpge_ps(_mm_load_ps(n.hi), _mm_load_ps(q.lo)));
+    return (_mm_movemask_ps(meet) & 7) == 7;
+#else
     return (n.lo[0] <= q.hi[0]) & (n.hi[0] >= q.lo[0]) & (n.lo[1] <= q.hi[1]) & (n.hi[1] >= q.lo[1]) &
            (n.lo[2] <= q.hi[2]) & (n.hi[2] >= q.lo[2]);
+#endif
   }
   /// Float bounds at or below / above v (v - or + a margin that exceeds the rounding error).
   float roundDown(double v) const { return static_cast<float>(v - floatMargin_); }
