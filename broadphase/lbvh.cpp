@@ -293,8 +293,8 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
   };
   Images images;
   QueryBox sphereBox[27];
-  constexpr int kLanes = 8;
-  alignas(32) float laneLo[3][kLanes], laneHi[3][kLanes];
+  constexpr int kLanes = 4;  // one SSE register of floats
+  alignas(16) float laneLo[3][kLanes], laneHi[3][kLanes];
   for (const Index leafId : leafNode_) {
     const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
     const Index first = -1 - leaf.right, end = leaf.end;
@@ -324,7 +324,7 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
     }
     if (candidates_.empty()) continue;
     if (direct) {
-      // Up to kLanes spheres of the leaf at once: their boxes against each candidate leaf's box as
+      // Up to 4 spheres of the leaf at once: their boxes against each candidate leaf's box as
       // one vector of tests, then the pair tests for the lanes that met it.
       for (Index s0 = first; s0 < end; s0 += kLanes) {
         const int lanes = static_cast<int>(std::min<Index>(kLanes, end - s0));
@@ -343,15 +343,29 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
             }
           }
         }
+#if defined(__SSE2__)
+        const __m128 lx = _mm_load_ps(laneLo[0]), ly = _mm_load_ps(laneLo[1]), lz = _mm_load_ps(laneLo[2]);
+        const __m128 hx = _mm_load_ps(laneHi[0]), hy = _mm_load_ps(laneHi[1]), hz = _mm_load_ps(laneHi[2]);
+#endif
         for (const Index c : candidates_) {
           const Node& cn = nodes_[static_cast<std::size_t>(c)];
           if constexpr (kCount) visits += static_cast<std::uint64_t>(lanes);
+#if defined(__SSE2__)
+          const __m128 mx =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[0]), hx), _mm_cmpge_ps(_mm_set1_ps(cn.hi[0]), lx));
+          const __m128 my =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[1]), hy), _mm_cmpge_ps(_mm_set1_ps(cn.hi[1]), ly));
+          const __m128 mz =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[2]), hz), _mm_cmpge_ps(_mm_set1_ps(cn.hi[2]), lz));
+          auto mask = static_cast<unsigned>(_mm_movemask_ps(_mm_and_ps(_mm_and_ps(mx, my), mz)));
+#else
           unsigned mask = 0;
           for (int l = 0; l < kLanes; ++l) {
             const bool meet = (cn.lo[0] <= laneHi[0][l]) & (cn.hi[0] >= laneLo[0][l]) & (cn.lo[1] <= laneHi[1][l]) &
                               (cn.hi[1] >= laneLo[1][l]) & (cn.lo[2] <= laneHi[2][l]) & (cn.hi[2] >= laneLo[2][l]);
             mask |= static_cast<unsigned>(meet) << l;
           }
+#endif
           while (mask != 0) {
             const Index s = s0 + std::countr_zero(mask);
             mask &= mask - 1;

@@ -7,29 +7,34 @@
 // and k-d trees", HPG 2012, Sec. 4), which is O(M log M) for M leaves here because it
 // runs sequentially. Duplicate keys are disambiguated by the leaf index, as Karras does (Sec. 4).
 // The tree is then laid out in depth-first pre-order (left child = next node), so a traversal walks
-// memory forwards. Each node stores the box of the sphere centres below it and the largest radius
-// below it; sphere i visits a node when its centre is within r_i + r_max(node) + skin of the box
-// (Howard et al., Comput. Phys. Commun. 203 (2016) 45: one tree, per-particle search radius).
+// memory forwards. Each node (32 bytes) stores the box of the spheres below it (centre -+ radius, not
+// the centres' box dilated by the largest radius, which a single large sphere would inflate in every
+// direction), in float rounded outward by a margin above the rounding error so no pair is lost;
+// a box test is two 16-byte SSE compares. Pairs within reach have overlapping boxes once one of them
+// is dilated by the skin, so every test is box against box (Howard et al., Comput. Phys. Commun. 203
+// (2016) 45, use one tree with per-particle search radii; here the radius is in the box).
 //
-// findPairs: one stack-based traversal per leaf, with the leaf's box and largest radius, that only
-// looks at leaves later in Morton order (every node knows the end of its slot range, so earlier
-// subtrees are skipped whole), so each pair is found once. It collects the candidate leaves; each
-// sphere of the leaf then tests every candidate leaf's box with its own radius before the pair tests,
-// which keeps the per-sphere bound of Howard et al. at a 1/leafSize share of the traversals.
-// findNeighbours(i) is one traversal for sphere i alone. Periodic boundaries: the query (leaf box or
-// sphere) is imaged (up to 8 images near a corner), never the tree. Candidates are filtered with
-// spheresWithinReach on the minimum image.
+// findPairs: one traversal per leaf, with the leaf's box dilated by the skin, that only looks at
+// leaves later in Morton order (every node knows the end of its slot range, so earlier subtrees are
+// cut whole); children are tested before they are pushed on a fixed stack of depth + 2 entries. It
+// collects the candidate leaves; each candidate leaf's box is then tested against the boxes of up to
+// four of the querying leaf's spheres at once (one SSE compare per axis) before the pair tests.
+// findNeighbours(i) is one traversal with sphere i's box alone. Periodic boundaries: the query is
+// imaged (up to 27 images), never the tree, and only where the shifted query meets the root's box.
+// A leaf with no image has no pair across a periodic face, and its pairs are tested by the plain
+// difference (the minimum image of every pair within reach there); otherwise candidates are
+// filtered with spheresWithinReach on the minimum image.
 //
 // update(): refit. Moved spheres' leaves and their ancestors are re-bounded (O(|moved| log M)); the
 // topology is kept. Rebuild rule: the tree is rebuilt from scratch when the summed volume of the
-// node boxes dilated by their search radius (r_max(node) + r_min + skin), which is V times the
-// expected number of node visits of a small sphere's query (the proximity analogue of MacDonald &
+// node boxes dilated by r_min + skin, which is V times the expected number of node visits of a
+// small sphere's query (the proximity analogue of MacDonald &
 // Booth's surface-area heuristic, The Visual Computer 6 (1990) 153), exceeds `rebuildFactor`
 // (default 1.5) times its value right after the last build.
 //
-// Leaf size 4 is Howard et al.'s default, not tuned here (scripts/backends_report.sh takes lbvh:B to
-// tune it). `auto` does not consider trees: no validated model of their cost exists yet
-// (docs/benchmarks/backends/README.md).
+// Leaf size 4 is Howard et al.'s default; by instruction counts (callgrind, N = 30000, packing 0.3)
+// 2 is within 2% of it and 8 is 20-40% dearer (scripts/backends_report.sh takes lbvh:B to time it). `auto` does not
+// consider trees: no validated model of their cost exists yet (docs/benchmarks/backends/README.md).
 #include <cstdint>
 #if defined(__SSE2__)
 #include <emmintrin.h>
