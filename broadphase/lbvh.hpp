@@ -32,9 +32,11 @@
 // Booth's surface-area heuristic, The Visual Computer 6 (1990) 153), exceeds `rebuildFactor`
 // (default 1.5) times its value right after the last build.
 //
-// Leaf size 4 is Howard et al.'s default; by instruction counts (callgrind, N = 30000, packing 0.3)
-// 2 is within 2% of it and 8 is 20-40% dearer (scripts/backends_report.sh takes lbvh:B to time it). `auto` does not
-// consider trees: no validated model of their cost exists yet (docs/benchmarks/backends/README.md).
+// Leaf size 4 is Howard et al.'s default and kept: by callgrind instruction counts of build + find
+// (N = 30000, packing 0.3, uniform volume omega 10 and 100, bidisperse omega 10) leaves of 2 cost
+// 3% more to 3% less and leaves of 8 20-27% more (scripts/backends_report.sh takes lbvh:B to time
+// it). `auto` does not consider trees: no validated model of their cost exists yet
+// (docs/benchmarks/backends/README.md).
 #include <cstdint>
 #if defined(__SSE2__)
 #include <emmintrin.h>
