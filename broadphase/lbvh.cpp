@@ -306,23 +306,33 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
       hi[k] = static_cast<double>(leaf.hi[k]) + dilation;
     }
     imagesOf(lo, hi, images);
-    const bool direct = images.count == 1;
+    const bool directInside = images.count == 1;
     for (Index s = first; s < end; ++s) {  // pairs inside the leaf
       const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
       for (Index t = s + 1; t < end; ++t) {
         const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
         if constexpr (kCount) ++tests;
-        if (direct ? directPair(ps, pt) : spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
+        if (directInside ? directPair(ps, pt) : spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
       }
     }
     if (end == n) continue;
     candidates_.clear();
+    // An image that meets no later leaf is dropped: no pair with a later leaf reaches through it.
+    // (Pairs inside the leaf, above, kept every image.)
+    int kept = 0;
     for (int k = 0; k < images.count; ++k) {
       QueryBox q;
       toQuery(lo, hi, images.shift[k], q);
+      const std::size_t before = candidates_.size();
       visits += candidateLeaves(q, end);
+      if (k == 0 || candidates_.size() > before) {
+        for (int a = 0; a < 3; ++a) images.shift[kept][a] = images.shift[k][a];
+        ++kept;
+      }
     }
+    images.count = kept;
     if (candidates_.empty()) continue;
+    const bool direct = images.count == 1;
     if (direct) {
       // Up to 4 spheres of the leaf at once: their boxes against each candidate leaf's box as
       // one vector of tests, then the pair tests for the lanes that met it.
@@ -391,11 +401,22 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
       for (int k = 0; k < images.count; ++k) toQuery(slo, shi, images.shift[k], sphereBox[k]);
       for (const Index c : candidates_) {
         const Node& cn = nodes_[static_cast<std::size_t>(c)];
-        // The sphere's own box against the candidate leaf's, through any of the images.
-        if constexpr (kCount) ++visits;
-        bool near = overlaps(cn, sphereBox[0]);
-        for (int k = 1; k < images.count && !near; ++k) near = overlaps(cn, sphereBox[k]);
-        if (!near) continue;
+        // The sphere's own box against the candidate leaf's, through every image. Met only
+        // unshifted, no pair of the two reaches across a face (it would meet through that image):
+        // the plain difference is exact there.
+        if constexpr (kCount) visits += static_cast<std::uint64_t>(images.count);
+        const bool plain = overlaps(cn, sphereBox[0]);
+        bool imaged = false;
+        for (int k = 1; k < images.count; ++k) imaged |= overlaps(cn, sphereBox[k]);
+        if (!imaged) {
+          if (!plain) continue;
+          for (Index t = -1 - cn.right; t < cn.end; ++t) {
+            const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+            if constexpr (kCount) ++tests;
+            if (directPair(ps, pt)) emit(s, t);
+          }
+          continue;
+        }
         for (Index t = -1 - cn.right; t < cn.end; ++t) {
           const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
           if constexpr (kCount) ++tests;
