@@ -99,6 +99,13 @@ void Lbvh::doBuild(const SphereView& spheres) {
   sorted_.resize(static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   packed_.resize(4, n);
+  // Columns x, y, z, r per slot, each padded by two far-away zero-radius slots.
+  columnStride_ = static_cast<std::size_t>(n) + 2;
+  columns_.resize(4 * columnStride_);
+  for (std::size_t k = 0; k < 4; ++k) {
+    for (std::size_t t = static_cast<std::size_t>(n); t < columnStride_; ++t)
+      columns_[k * columnStride_ + t] = k < 3 ? 1e300 : 0.0;
+  }
   nodes_.clear();
   parent_.clear();
   leafNode_.clear();
@@ -112,6 +119,7 @@ void Lbvh::doBuild(const SphereView& spheres) {
     sorted_[static_cast<std::size_t>(s)] = i;
     slotOf_[static_cast<std::size_t>(i)] = s;
     packed_.col(s) << spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i];
+    for (std::size_t k = 0; k < 4; ++k) columns_[k * columnStride_ + static_cast<std::size_t>(s)] = packed_(k, s);
   }
 
   // Leaves: runs of leafSize_ consecutive slots, keyed by their first sphere's code.
@@ -180,7 +188,11 @@ void Lbvh::doBuild(const SphereView& spheres) {
 
 void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   if (nodes_.empty()) return;
-  for (Index i : moved) packed_.col(slotOf_[static_cast<std::size_t>(i)]).head<3>() = spheres.centre.col(i);
+  for (Index i : moved) {
+    const Index slot = slotOf_[static_cast<std::size_t>(i)];
+    packed_.col(slot).head<3>() = spheres.centre.col(i);
+    for (std::size_t k = 0; k < 3; ++k) columns_[k * columnStride_ + static_cast<std::size_t>(slot)] = packed_(k, slot);
+  }
   if (static_cast<double>(moved.size()) * (depth_ + 1) > static_cast<double>(nodes_.size())) {
     refitAll();  // many moved: one O(M) sweep is cheaper than the paths
   } else {
@@ -291,6 +303,10 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
     const double limit = (a[3] + b[3]) + skin;
     return dx * dx + dy * dy + dz * dz <= limit * limit;
   };
+  const double* cx = columns_.data();
+  const double* cy = cx + columnStride_;
+  const double* cz = cy + columnStride_;
+  const double* cr = cz + columnStride_;
   Images images;
   QueryBox sphereBox[27];
   constexpr int kLanes = 4;  // one SSE register of floats
@@ -380,11 +396,29 @@ void Lbvh::pairsImpl(std::vector<Pair>& out) const {
             const Index s = s0 + std::countr_zero(mask);
             mask &= mask - 1;
             const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
-            for (Index t = -1 - cn.right; t < cn.end; ++t) {
-              const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
-              if constexpr (kCount) ++tests;
-              if (directPair(ps, pt)) emit(s, t);
+            const Index t0 = -1 - cn.right;
+            if constexpr (kCount) tests += static_cast<std::uint64_t>(cn.end - t0);
+#if defined(__SSE2__)
+            // Two pair tests per step on the slot-ordered columns, with directPair's operations in
+            // its order (so the same results); the column past the last slot is padding.
+            const __m128d sx = _mm_set1_pd(ps[0]), sy = _mm_set1_pd(ps[1]), sz = _mm_set1_pd(ps[2]);
+            const __m128d sr = _mm_set1_pd(ps[3]), sk = _mm_set1_pd(skin);
+            for (Index t = t0; t < cn.end; t += 2) {
+              const __m128d dx = _mm_sub_pd(sx, _mm_loadu_pd(cx + t)), dy = _mm_sub_pd(sy, _mm_loadu_pd(cy + t)),
+                            dz = _mm_sub_pd(sz, _mm_loadu_pd(cz + t));
+              const __m128d d2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
+              const __m128d limit = _mm_add_pd(_mm_add_pd(sr, _mm_loadu_pd(cr + t)), sk);
+              const int hit = _mm_movemask_pd(_mm_cmple_pd(d2, _mm_mul_pd(limit, limit)));
+              if (hit != 0) [[unlikely]] {
+                if (hit & 1) emit(s, t);
+                if ((hit & 2) && t + 1 < cn.end) emit(s, t + 1);
+              }
             }
+#else
+            for (Index t = t0; t < cn.end; ++t) {
+              if (directPair(ps, p + 4 * static_cast<std::ptrdiff_t>(t))) emit(s, t);
+            }
+#endif
           }
         }
       }
@@ -476,8 +510,8 @@ void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<
 std::size_t Lbvh::memoryBytes() const {
   return nodes_.capacity() * sizeof(Node) + parent_.capacity() * sizeof(Index) + leafNode_.capacity() * sizeof(Index) +
          sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) +
-         static_cast<std::size_t>(packed_.size()) * sizeof(double) + keys_.capacity() * sizeof(keys_[0]) +
-         leafKey_.capacity() * sizeof(std::uint64_t) +
+         static_cast<std::size_t>(packed_.size()) * sizeof(double) + columns_.capacity() * sizeof(double) +
+         keys_.capacity() * sizeof(keys_[0]) + leafKey_.capacity() * sizeof(std::uint64_t) +
          (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) + work_.capacity() * sizeof(Pending) +
          stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
 }

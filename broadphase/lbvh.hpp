@@ -133,6 +133,8 @@ class Lbvh final : public BroadPhase {
   std::vector<Index> sorted_;    // particle per slot (Morton order)
   std::vector<Index> slotOf_;    // slot per particle
   Eigen::Matrix4Xd packed_;      // x, y, z, r per slot
+  std::vector<double> columns_;  // the same as four columns (x, y, z, r) of columnStride_ slots each
+  std::size_t columnStride_ = 0;
   // Build scratch (capacity kept: no allocation in steady state).
   std::vector<std::pair<std::uint64_t, Index>> keys_;
   std::vector<std::uint64_t> leafKey_;
