@@ -18,12 +18,18 @@
 // leaves later in Morton order (every node knows the end of its slot range, so earlier subtrees are
 // cut whole); children are tested before they are pushed on a fixed stack of depth + 2 entries. It
 // collects the candidate leaves; each candidate leaf's box is then tested against the boxes of up to
-// four of the querying leaf's spheres at once (one SSE compare per axis) before the pair tests.
-// findNeighbours(i) is one traversal with sphere i's box alone. Periodic boundaries: the query is
-// imaged (up to 27 images), never the tree, and only where the shifted query meets the root's box.
-// A leaf with no image has no pair across a periodic face, and its pairs are tested by the plain
-// difference (the minimum image of every pair within reach there); otherwise candidates are
-// filtered with spheresWithinReach on the minimum image.
+// four of the querying leaf's spheres at once (one SSE compare per axis), and a sphere that meets it
+// is tested against the leaf's spheres two at a time (SSE2 doubles on x, y, z, r columns in slot
+// order, the scalar test's operations in its order). findNeighbours(i) is one traversal with sphere
+// i's box alone.
+//
+// Periodic boundaries: the query is imaged (up to 27 images), never the tree, and only where the
+// shifted query meets the root's box; an image whose traversal meets no later leaf is dropped. A
+// leaf left with no image has no pair across a periodic face, and there the plain difference is the
+// minimum image of every pair within reach (|d_k| <= 2 r_max + skin <= L_k / 2), so its pairs are
+// tested by the plain difference; otherwise a sphere that meets a candidate leaf through an image
+// is tested with spheresWithinReach (minimum image), and one that meets it only unshifted by the
+// plain difference.
 //
 // update(): refit. Moved spheres' leaves and their ancestors are re-bounded (O(|moved| log M)); the
 // topology is kept. Rebuild rule: the tree is rebuilt from scratch when the summed volume of the
@@ -34,8 +40,8 @@
 //
 // Leaf size 4 is Howard et al.'s default and kept: by callgrind instruction counts of build + find
 // (N = 30000, packing 0.3, uniform volume omega 10 and 100, bidisperse omega 10) leaves of 2 cost
-// 3% more to 3% less and leaves of 8 20-27% more (scripts/backends_report.sh takes lbvh:B to time
-// it). `auto` does not consider trees: no validated model of their cost exists yet
+// 10-16% more and leaves of 8 8-14% more (scripts/backends_report.sh takes lbvh:B to time it).
+// `auto` does not consider trees: no validated model of their cost exists yet
 // (docs/benchmarks/backends/README.md).
 #include <cstdint>
 #if defined(__SSE2__)
