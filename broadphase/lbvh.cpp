@@ -37,25 +37,32 @@ void Lbvh::setRebuildFactor(double factor) {
 }
 
 double Lbvh::nodeCost(const Node& n) const {
-  const double h = 2.0 * (n.rmax + minRadius_ + skin_);
-  return (n.hi[0] - n.lo[0] + h) * (n.hi[1] - n.lo[1] + h) * (n.hi[2] - n.lo[2] + h);
+  // A small sphere's query box (r_min + skin around its centre) meets the node's box when the centre
+  // lies in the box dilated by r_min + skin: V times the expected visits of such a query.
+  const double h = 2.0 * (minRadius_ + skin_);
+  const double dx = static_cast<double>(n.hi[0]) - n.lo[0], dy = static_cast<double>(n.hi[1]) - n.lo[1],
+               dz = static_cast<double>(n.hi[2]) - n.lo[2];
+  return (dx + h) * (dy + h) * (dz + h);
 }
 
 void Lbvh::boundLeaf(Index node) {
   Node& nd = nodes_[static_cast<std::size_t>(node)];
   const Index first = -1 - nd.right;
+  double lo[3], hi[3];
   for (int k = 0; k < 3; ++k) {
-    nd.lo[k] = std::numeric_limits<double>::infinity();
-    nd.hi[k] = -std::numeric_limits<double>::infinity();
+    lo[k] = std::numeric_limits<double>::infinity();
+    hi[k] = -std::numeric_limits<double>::infinity();
   }
-  nd.rmax = 0.0;
   for (Index t = first; t < nd.end; ++t) {
     const double* p = packed_.data() + 4 * static_cast<std::ptrdiff_t>(t);
     for (int k = 0; k < 3; ++k) {
-      nd.lo[k] = std::min(nd.lo[k], p[k]);
-      nd.hi[k] = std::max(nd.hi[k], p[k]);
+      lo[k] = std::min(lo[k], p[k] - p[3]);
+      hi[k] = std::max(hi[k], p[k] + p[3]);
     }
-    nd.rmax = std::max(nd.rmax, p[3]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    nd.lo[k] = roundDown(lo[k]);
+    nd.hi[k] = roundUp(hi[k]);
   }
 }
 
@@ -67,7 +74,6 @@ void Lbvh::boundInternal(Index node) {
     nd.lo[k] = std::min(a.lo[k], b.lo[k]);
     nd.hi[k] = std::max(a.hi[k], b.hi[k]);
   }
-  nd.rmax = std::max(a.rmax, b.rmax);
   nd.end = b.end;
 }
 
@@ -87,9 +93,19 @@ void Lbvh::doBuild(const SphereView& spheres) {
   ++rebuilds_;
   const Index n = spheres.count();
   tolerance_ = 1e-12 * (box_.lengths().maxCoeff() + 4.0 * maxRadius_ + 2.0 * skin_);
+  // Every value rounded to float (a box bound, possibly imaged) is below M = 2 L + 4 r_max + 4 skin in
+  // magnitude, where rounding to nearest errs by at most 2^-24 M: a margin of 2^-22 M rounds outward.
+  floatMargin_ = 0x1p-22 * (2.0 * box_.lengths().maxCoeff() + 4.0 * maxRadius_ + 4.0 * skin_);
   sorted_.resize(static_cast<std::size_t>(n));
   slotOf_.resize(static_cast<std::size_t>(n));
   packed_.resize(4, n);
+  // Columns x, y, z, r per slot, each padded by two far-away zero-radius slots.
+  columnStride_ = static_cast<std::size_t>(n) + 2;
+  columns_.resize(4 * columnStride_);
+  for (std::size_t k = 0; k < 4; ++k) {
+    for (std::size_t t = static_cast<std::size_t>(n); t < columnStride_; ++t)
+      columns_[k * columnStride_ + t] = k < 3 ? 1e300 : 0.0;
+  }
   nodes_.clear();
   parent_.clear();
   leafNode_.clear();
@@ -103,6 +119,7 @@ void Lbvh::doBuild(const SphereView& spheres) {
     sorted_[static_cast<std::size_t>(s)] = i;
     slotOf_[static_cast<std::size_t>(i)] = s;
     packed_.col(s) << spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i];
+    for (std::size_t k = 0; k < 4; ++k) columns_[k * columnStride_ + static_cast<std::size_t>(s)] = packed_(k, s);
   }
 
   // Leaves: runs of leafSize_ consecutive slots, keyed by their first sphere's code.
@@ -171,7 +188,11 @@ void Lbvh::doBuild(const SphereView& spheres) {
 
 void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   if (nodes_.empty()) return;
-  for (Index i : moved) packed_.col(slotOf_[static_cast<std::size_t>(i)]).head<3>() = spheres.centre.col(i);
+  for (Index i : moved) {
+    const Index slot = slotOf_[static_cast<std::size_t>(i)];
+    packed_.col(slot).head<3>() = spheres.centre.col(i);
+    for (std::size_t k = 0; k < 3; ++k) columns_[k * columnStride_ + static_cast<std::size_t>(slot)] = packed_(k, slot);
+  }
   if (static_cast<double>(moved.size()) * (depth_ + 1) > static_cast<double>(nodes_.size())) {
     refitAll();  // many moved: one O(M) sweep is cheaper than the paths
   } else {
@@ -196,16 +217,18 @@ void Lbvh::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   if (quality_ > rebuildFactor_ * builtQuality_) doBuild(spheres);
 }
 
-void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& out) const {
+void Lbvh::imagesOf(const double* lo, const double* hi, Images& out) const {
+  const Node& root = nodes_.front();
   double shifts[3][3];
   int count[3];
   for (int k = 0; k < 3; ++k) {
     count[k] = 0;
     shifts[k][count[k]++] = 0.0;
     if (!box_.periodic(k)) continue;
-    // Image at x + L reaches spheres near L; image at x - L reaches spheres near 0.
-    if (lo[k] - radius < 0.0) shifts[k][count[k]++] = box_.length(k);
-    if (hi[k] + radius > box_.length(k)) shifts[k][count[k]++] = -box_.length(k);
+    // The image at +L meets boxes near L, the image at -L boxes near 0: only where the root's box is.
+    const double length = box_.length(k);
+    if (lo[k] + length <= root.hi[k]) shifts[k][count[k]++] = length;
+    if (hi[k] - length >= root.lo[k]) shifts[k][count[k]++] = -length;
   }
   out.count = 0;
   for (int a = 0; a < count[0]; ++a)
@@ -218,126 +241,220 @@ void Lbvh::imagesOf(const double* lo, const double* hi, double radius, Images& o
       }
 }
 
-template <bool kCount, class Visit>
-void Lbvh::query(const double* x, const double* shift, double ri, double reach, Index minSlot, std::uint64_t& tests,
-                 std::uint64_t& visits, Visit&& visit) const {
-  const double q[3] = {x[0] + shift[0], x[1] + shift[1], x[2] + shift[2]};
-  const double* p = packed_.data();
-  const double base = ri + reach + tolerance_;
-  Index* stack = stack_.data();
-  int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Index id = stack[--top];
-    const Node& nd = nodes_[static_cast<std::size_t>(id)];
-    if (nd.end <= minSlot) continue;  // every sphere below comes before the query in Morton order
-    if constexpr (kCount) ++visits;
-    double d2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = std::max(std::max(nd.lo[k] - q[k], q[k] - nd.hi[k]), 0.0);
-      d2 += d * d;
-    }
-    const double limit = base + nd.rmax;
-    if (d2 > limit * limit) continue;
-    if (isLeaf(nd)) {
-      for (Index t = std::max(-1 - nd.right, minSlot); t < nd.end; ++t) {
-        const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
-        if constexpr (kCount) ++tests;
-        if (spheresWithinReach(box_, x, ri, pt, pt[3], reach)) visit(t);
-      }
-    } else {
-      stack[top++] = nd.right;
-      stack[top++] = id + 1;
-    }
+void Lbvh::toQuery(const double* lo, const double* hi, const double* shift, QueryBox& q) const {
+  for (int k = 0; k < 3; ++k) {
+    q.lo[k] = roundDown(lo[k] + shift[k]);
+    q.hi[k] = roundUp(hi[k] + shift[k]);
   }
+  q.lo[3] = q.hi[3] = 0.0f;
 }
 
-void Lbvh::candidateLeaves(const Node& group, const double* shift, Index minEnd, std::uint64_t& visits) const {
-  double lo[3], hi[3];
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = group.lo[k] + shift[k];
-    hi[k] = group.hi[k] + shift[k];
-  }
-  const double base = group.rmax + skin_ + tolerance_;
+std::uint64_t Lbvh::candidateLeaves(const QueryBox& q, Index minEnd) const {
+  // Children are tested before they are pushed, so every popped node is known to meet the query;
+  // the left child (id + 1) is descended into directly. Nodes ending at or before minEnd hold only
+  // leaves at or before the querying leaf in Morton order and are cut whole.
+  std::uint64_t visits = 1;
+  const Node* nodes = nodes_.data();
+  if (!(nodes[0].end > minEnd && overlaps(nodes[0], q))) return visits;
   Index* stack = stack_.data();
   int top = 0;
-  stack[top++] = 0;
-  while (top > 0) {
-    const Index id = stack[--top];
-    const Node& nd = nodes_[static_cast<std::size_t>(id)];
-    if (nd.end <= minEnd) continue;  // at or before the group's own leaf in Morton order
-    ++visits;
-    double d2 = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = std::max(std::max(nd.lo[k] - hi[k], lo[k] - nd.hi[k]), 0.0);
-      d2 += d * d;
-    }
-    const double limit = base + nd.rmax;
-    if (d2 > limit * limit) continue;
-    if (isLeaf(nd)) {
+  Index id = 0;
+  for (;;) {
+    const Node& nd = nodes[id];
+    if (nd.right < 0) {
       candidates_.push_back(id);
     } else {
-      stack[top++] = nd.right;
-      stack[top++] = id + 1;
+      const Index l = id + 1, r = nd.right;
+      visits += 2;
+      const bool goLeft = nodes[l].end > minEnd && overlaps(nodes[l], q);
+      const bool goRight = overlaps(nodes[r], q);  // its end is the parent's, > minEnd
+      if (goLeft) {
+        if (goRight) stack[top++] = r;
+        id = l;
+        continue;
+      }
+      if (goRight) {
+        id = r;
+        continue;
+      }
     }
+    if (top == 0) break;
+    id = stack[--top];
   }
+  return visits;
 }
 
 template <bool kCount>
 void Lbvh::pairsImpl(std::vector<Pair>& out) const {
   const Index n = static_cast<Index>(sorted_.size());
   const double* p = packed_.data();
-  const double rootRadius = nodes_.front().rmax;
+  const double dilation = skin_ + tolerance_;
+  const double skin = skin_;
   std::uint64_t tests = 0, visits = 0;
   auto emit = [&](Index s, Index t) {
     const Index i = sorted_[static_cast<std::size_t>(s)], j = sorted_[static_cast<std::size_t>(t)];
     out.push_back(i < j ? Pair{i, j} : Pair{j, i});
   };
+  // Without images (the leaf's dilated box meets no image of the root's box) no pair of the leaf's
+  // spheres reaches across a periodic face, and there the plain difference is the minimum image of
+  // every pair within reach (|d_k| <= 2 r_max + skin <= L_k / 2): the direct test is exact.
+  auto directPair = [&](const double* a, const double* b) {
+    const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    const double limit = (a[3] + b[3]) + skin;
+    return dx * dx + dy * dy + dz * dz <= limit * limit;
+  };
+  const double* cx = columns_.data();
+  const double* cy = cx + columnStride_;
+  const double* cz = cy + columnStride_;
+  const double* cr = cz + columnStride_;
   Images images;
+  QueryBox sphereBox[27];
+  constexpr int kLanes = 4;  // one SSE register of floats
+  alignas(16) float laneLo[3][kLanes], laneHi[3][kLanes];
   for (const Index leafId : leafNode_) {
     const Node& leaf = nodes_[static_cast<std::size_t>(leafId)];
     const Index first = -1 - leaf.right, end = leaf.end;
+    // The leaf's box (its spheres' boxes) dilated by the skin meets every box of a sphere that one of
+    // its spheres reaches.
+    double lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = static_cast<double>(leaf.lo[k]) - dilation;
+      hi[k] = static_cast<double>(leaf.hi[k]) + dilation;
+    }
+    imagesOf(lo, hi, images);
+    const bool directInside = images.count == 1;
     for (Index s = first; s < end; ++s) {  // pairs inside the leaf
       const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
       for (Index t = s + 1; t < end; ++t) {
         const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
         if constexpr (kCount) ++tests;
-        if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+        if (directInside ? directPair(ps, pt) : spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
       }
     }
     if (end == n) continue;
-    imagesOf(leaf.lo, leaf.hi, leaf.rmax + rootRadius + skin_ + tolerance_, images);
     candidates_.clear();
-    for (int k = 0; k < images.count; ++k) candidateLeaves(leaf, images.shift[k], end, visits);
-    if (images.count > 1) {
-      // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
-      std::sort(candidates_.begin(), candidates_.end());
-      candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
+    // An image that meets no later leaf is dropped: no pair with a later leaf reaches through it.
+    // (Pairs inside the leaf, above, kept every image.)
+    int kept = 0;
+    for (int k = 0; k < images.count; ++k) {
+      QueryBox q;
+      toQuery(lo, hi, images.shift[k], q);
+      const std::size_t before = candidates_.size();
+      visits += candidateLeaves(q, end);
+      if (k == 0 || candidates_.size() > before) {
+        for (int a = 0; a < 3; ++a) images.shift[kept][a] = images.shift[k][a];
+        ++kept;
+      }
     }
+    images.count = kept;
+    if (candidates_.empty()) continue;
+    const bool direct = images.count == 1;
+    if (direct) {
+      // Up to 4 spheres of the leaf at once: their boxes against each candidate leaf's box as
+      // one vector of tests, then the pair tests for the lanes that met it.
+      for (Index s0 = first; s0 < end; s0 += kLanes) {
+        const int lanes = static_cast<int>(std::min<Index>(kLanes, end - s0));
+        for (int l = 0; l < kLanes; ++l) {
+          if (l < lanes) {
+            const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s0 + l);
+            const double reach = ps[3] + dilation;
+            for (int k = 0; k < 3; ++k) {
+              laneLo[k][l] = roundDown(ps[k] - reach);
+              laneHi[k][l] = roundUp(ps[k] + reach);
+            }
+          } else {
+            for (int k = 0; k < 3; ++k) {  // an empty box meets nothing
+              laneLo[k][l] = std::numeric_limits<float>::infinity();
+              laneHi[k][l] = -std::numeric_limits<float>::infinity();
+            }
+          }
+        }
+#if defined(__SSE2__)
+        const __m128 lx = _mm_load_ps(laneLo[0]), ly = _mm_load_ps(laneLo[1]), lz = _mm_load_ps(laneLo[2]);
+        const __m128 hx = _mm_load_ps(laneHi[0]), hy = _mm_load_ps(laneHi[1]), hz = _mm_load_ps(laneHi[2]);
+#endif
+        for (const Index c : candidates_) {
+          const Node& cn = nodes_[static_cast<std::size_t>(c)];
+          if constexpr (kCount) visits += static_cast<std::uint64_t>(lanes);
+#if defined(__SSE2__)
+          const __m128 mx =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[0]), hx), _mm_cmpge_ps(_mm_set1_ps(cn.hi[0]), lx));
+          const __m128 my =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[1]), hy), _mm_cmpge_ps(_mm_set1_ps(cn.hi[1]), ly));
+          const __m128 mz =
+              _mm_and_ps(_mm_cmple_ps(_mm_set1_ps(cn.lo[2]), hz), _mm_cmpge_ps(_mm_set1_ps(cn.hi[2]), lz));
+          auto mask = static_cast<unsigned>(_mm_movemask_ps(_mm_and_ps(_mm_and_ps(mx, my), mz)));
+#else
+          unsigned mask = 0;
+          for (int l = 0; l < kLanes; ++l) {
+            const bool meet = (cn.lo[0] <= laneHi[0][l]) & (cn.hi[0] >= laneLo[0][l]) & (cn.lo[1] <= laneHi[1][l]) &
+                              (cn.hi[1] >= laneLo[1][l]) & (cn.lo[2] <= laneHi[2][l]) & (cn.hi[2] >= laneLo[2][l]);
+            mask |= static_cast<unsigned>(meet) << l;
+          }
+#endif
+          while (mask != 0) {
+            const Index s = s0 + std::countr_zero(mask);
+            mask &= mask - 1;
+            const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
+            const Index t0 = -1 - cn.right;
+            if constexpr (kCount) tests += static_cast<std::uint64_t>(cn.end - t0);
+#if defined(__SSE2__)
+            // Two pair tests per step on the slot-ordered columns, with directPair's operations in
+            // its order (so the same results); the column past the last slot is padding.
+            const __m128d sx = _mm_set1_pd(ps[0]), sy = _mm_set1_pd(ps[1]), sz = _mm_set1_pd(ps[2]);
+            const __m128d sr = _mm_set1_pd(ps[3]), sk = _mm_set1_pd(skin);
+            for (Index t = t0; t < cn.end; t += 2) {
+              const __m128d dx = _mm_sub_pd(sx, _mm_loadu_pd(cx + t)), dy = _mm_sub_pd(sy, _mm_loadu_pd(cy + t)),
+                            dz = _mm_sub_pd(sz, _mm_loadu_pd(cz + t));
+              const __m128d d2 = _mm_add_pd(_mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)), _mm_mul_pd(dz, dz));
+              const __m128d limit = _mm_add_pd(_mm_add_pd(sr, _mm_loadu_pd(cr + t)), sk);
+              const int hit = _mm_movemask_pd(_mm_cmple_pd(d2, _mm_mul_pd(limit, limit)));
+              if (hit != 0) [[unlikely]] {
+                if (hit & 1) emit(s, t);
+                if ((hit & 2) && t + 1 < cn.end) emit(s, t + 1);
+              }
+            }
+#else
+            for (Index t = t0; t < cn.end; ++t) {
+              if (directPair(ps, p + 4 * static_cast<std::ptrdiff_t>(t))) emit(s, t);
+            }
+#endif
+          }
+        }
+      }
+      continue;
+    }
+    // A leaf reached through two images (a periodic length of exactly 2 cut-offs) is tested once.
+    std::sort(candidates_.begin(), candidates_.end());
+    candidates_.erase(std::unique(candidates_.begin(), candidates_.end()), candidates_.end());
     for (Index s = first; s < end; ++s) {
       const double* ps = p + 4 * static_cast<std::ptrdiff_t>(s);
-      const double base = ps[3] + skin_ + tolerance_;
+      const double reach = ps[3] + dilation;
+      const double slo[3] = {ps[0] - reach, ps[1] - reach, ps[2] - reach};
+      const double shi[3] = {ps[0] + reach, ps[1] + reach, ps[2] + reach};
+      for (int k = 0; k < images.count; ++k) toQuery(slo, shi, images.shift[k], sphereBox[k]);
       for (const Index c : candidates_) {
         const Node& cn = nodes_[static_cast<std::size_t>(c)];
-        // The sphere's own bound on the candidate leaf, through any of the images.
-        if constexpr (kCount) ++visits;
-        bool near = false;
-        for (int k = 0; k < images.count && !near; ++k) {
-          const double* shift = images.shift[k];
-          double d2 = 0.0;
-          for (int a = 0; a < 3; ++a) {
-            const double q = ps[a] + shift[a];
-            const double d = std::max(std::max(cn.lo[a] - q, q - cn.hi[a]), 0.0);
-            d2 += d * d;
+        // The sphere's own box against the candidate leaf's, through every image. Met only
+        // unshifted, no pair of the two reaches across a face (it would meet through that image):
+        // the plain difference is exact there.
+        if constexpr (kCount) visits += static_cast<std::uint64_t>(images.count);
+        const bool plain = overlaps(cn, sphereBox[0]);
+        bool imaged = false;
+        for (int k = 1; k < images.count; ++k) imaged |= overlaps(cn, sphereBox[k]);
+        if (!imaged) {
+          if (!plain) continue;
+          for (Index t = -1 - cn.right; t < cn.end; ++t) {
+            const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
+            if constexpr (kCount) ++tests;
+            if (directPair(ps, pt)) emit(s, t);
           }
-          const double limit = base + cn.rmax;
-          near = d2 <= limit * limit;
+          continue;
         }
-        if (!near) continue;
         for (Index t = -1 - cn.right; t < cn.end; ++t) {
           const double* pt = p + 4 * static_cast<std::ptrdiff_t>(t);
           if constexpr (kCount) ++tests;
-          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin_)) emit(s, t);
+          if (spheresWithinReach(box_, ps, ps[3], pt, pt[3], skin)) emit(s, t);
         }
       }
     }
@@ -368,13 +485,23 @@ void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<
   }
   const Index slot = slotOf_[static_cast<std::size_t>(i)];
   const double* x = packed_.data() + 4 * static_cast<std::ptrdiff_t>(slot);
+  const double d = x[3] + reach + tolerance_;
+  const double lo[3] = {x[0] - d, x[1] - d, x[2] - d}, hi[3] = {x[0] + d, x[1] + d, x[2] + d};
   Images images;
-  imagesOf(x, x, x[3] + nodes_.front().rmax + reach + tolerance_, images);
-  std::uint64_t tests = 0, visits = 0;
+  imagesOf(lo, hi, images);
+  candidates_.clear();
   for (int k = 0; k < images.count; ++k) {
-    query<false>(x, images.shift[k], x[3], reach, 0, tests, visits, [&](Index t) {
-      if (t != slot) out.push_back(sorted_[static_cast<std::size_t>(t)]);
-    });
+    QueryBox q;
+    toQuery(lo, hi, images.shift[k], q);
+    candidateLeaves(q, -1);
+  }
+  for (const Index c : candidates_) {
+    const Node& cn = nodes_[static_cast<std::size_t>(c)];
+    for (Index t = -1 - cn.right; t < cn.end; ++t) {
+      const double* pt = packed_.data() + 4 * static_cast<std::ptrdiff_t>(t);
+      if (t != slot && spheresWithinReach(box_, x, x[3], pt, pt[3], reach))
+        out.push_back(sorted_[static_cast<std::size_t>(t)]);
+    }
   }
   std::sort(out.begin(), out.end());
   if (images.count > 1) out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -383,8 +510,8 @@ void Lbvh::findNeighbours(const SphereView&, Index i, double reach, std::vector<
 std::size_t Lbvh::memoryBytes() const {
   return nodes_.capacity() * sizeof(Node) + parent_.capacity() * sizeof(Index) + leafNode_.capacity() * sizeof(Index) +
          sorted_.capacity() * sizeof(Index) + slotOf_.capacity() * sizeof(Index) +
-         static_cast<std::size_t>(packed_.size()) * sizeof(double) + keys_.capacity() * sizeof(keys_[0]) +
-         leafKey_.capacity() * sizeof(std::uint64_t) +
+         static_cast<std::size_t>(packed_.size()) * sizeof(double) + columns_.capacity() * sizeof(double) +
+         keys_.capacity() * sizeof(keys_[0]) + leafKey_.capacity() * sizeof(std::uint64_t) +
          (childLeft_.capacity() + childRight_.capacity()) * sizeof(Index) + work_.capacity() * sizeof(Pending) +
          stack_.capacity() * sizeof(Index) + candidates_.capacity() * sizeof(Index);
 }
@@ -417,17 +544,16 @@ void Lbvh::validate(const SphereView& spheres) const {
       for (int k = 0; k < 3; ++k) {
         if (c.lo[k] < nd.lo[k] || c.hi[k] > nd.hi[k]) return false;
       }
-      return c.rmax <= nd.rmax;
+      return true;
     };
     if (isLeaf(nd)) {
       for (Index t = -1 - nd.right; t < nd.end; ++t) {
         ++covered[static_cast<std::size_t>(t)];
         for (int k = 0; k < 3; ++k) {
-          if (packed_(k, t) < nd.lo[k] || packed_(k, t) > nd.hi[k]) {
-            throw std::logic_error(fmt::format("lbvh: slot {} outside its leaf box", t));
+          if (packed_(k, t) - packed_(3, t) < nd.lo[k] || packed_(k, t) + packed_(3, t) > nd.hi[k]) {
+            throw std::logic_error(fmt::format("lbvh: sphere of slot {} outside its leaf box", t));
           }
         }
-        if (packed_(3, t) > nd.rmax) throw std::logic_error(fmt::format("lbvh: leaf radius below slot {}", t));
       }
     } else {
       const Node& a = nodes_[p + 1];

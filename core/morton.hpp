@@ -23,11 +23,13 @@ inline std::uint64_t spreadBits21(std::uint64_t v) {
 /// Morton key of position x (3 doubles) on a grid of 2^bits cells per axis (bits <= 21) over the box
 /// [0, L); coordinates outside are clamped to the edge cells.
 inline std::uint64_t mortonKey(const double* x, const Box& box, int bits) {
-  const double cells = std::ldexp(1.0, bits);
+  const double cells = static_cast<double>(std::uint64_t{1} << bits);
+  const auto last = (std::uint64_t{1} << bits) - 1;
   std::uint64_t key = 0;
   for (int k = 0; k < 3; ++k) {
-    const double s = std::clamp(x[k] / box.length(k), 0.0, 1.0);
-    key |= spreadBits21(static_cast<std::uint64_t>(std::min(cells - 1.0, std::floor(s * cells)))) << k;
+    const double t = std::clamp(x[k] / box.length(k), 0.0, 1.0) * cells;
+    // floor(t) clamped to the last cell; t >= 0 here, so truncation is the floor (NaN: the last cell).
+    key |= spreadBits21(t < cells - 1.0 ? static_cast<std::uint64_t>(t) : last) << k;
   }
   return key;
 }

@@ -121,6 +121,40 @@ TEST(Lbvh, RefitMatchesFreshBuildAndRebuildsWhenQualityDecays) {
   EXPECT_EQ(pairsOf(refitOnly, scene), test::pairsFrom("brute", scene, skin));
 }
 
+TEST(Lbvh, FloatNodeBoxesLoseNoPairFarFromTheOrigin) {
+  // Node boxes are floats: at coordinates near 1e6 one float step (1/16) is 6 radii, so bounds that
+  // were rounded to nearest instead of outward would drop pairs at a gap of exactly the skin.
+  const double r = 0.01, skin = 0.002, length = 1.0e6;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  for (Boundary boundary : {Boundary::Periodic, Boundary::Wall}) {
+    // Periodic: pairs across the face at L; walls: every centre inside.
+    std::uniform_real_distribution<double> near(length - 3.0, boundary == Boundary::Periodic ? length : length - 1.0);
+    test::Scene s;
+    s.box = Box::cubic(length, boundary);
+    const Index chains = 400;
+    s.centre.resize(3, 2 * chains);
+    s.radius = Eigen::VectorXd::Constant(2 * chains, r);
+    for (Index c = 0; c < chains; ++c) {
+      Eigen::Vector3d a(near(rng), near(rng), near(rng)), d(unit(rng), unit(rng), unit(rng));
+      d.normalize();
+      // Partner at a gap 2% inside the skin or 2% beyond it.
+      const Eigen::Vector3d b = a + d * (2.0 * r + skin * (c % 2 == 0 ? 0.98 : 1.02));
+      s.centre.col(2 * c) = s.box.wrap(a);
+      s.centre.col(2 * c + 1) = s.box.wrap(b);
+    }
+    const auto expected = test::pairsFrom("brute", s, skin);
+    ASSERT_GE(expected.size(), 200u);
+    for (int leaf : {1, 4}) {
+      Lbvh bvh;
+      bvh.setLeafSize(leaf);
+      bvh.build(s.spheres(), s.box, skin);
+      bvh.validate(s.spheres());
+      EXPECT_EQ(pairsOf(bvh, s), expected) << "leaf " << leaf;
+    }
+  }
+}
+
 TEST(Lbvh, PeriodicBoxOfExactlyTwoCutoffsReportsEachPairOnce) {
   // L = 2 (2 r_max + skin): a sphere can be reached through two images of the query at once.
   test::Scene s;
