@@ -16,7 +16,8 @@
 #   scripts/edmd_wide_sweep.sh [BUILD_DIR] [OUT_DIR] [START_DIR]
 #   defaults: build, docs/benchmarks/edmd, /work/edmd_starts
 # Environment: REPEAT (rounds, default 3), FIXED (measured collisions per particle, default 20), WARMUP
-# (unmeasured collisions per particle first, default 10), CASES (subset of the names below, in that order),
+# (unmeasured collisions per particle first, default 10), CASES (names from the table below; default all but
+# the optional ln10n50k),
 # STARTS_ONLY=1 (make the missing phi 0.5 starts and stop), PLOT=0 (no plot), CSV (default
 # OUT_DIR/sweep_rates.csv; rows are appended, the header written if the file is new), TASKSET (e.g. "taskset -c 1").
 #
@@ -27,7 +28,10 @@
 # N: 10,000, except where the box cannot hold the largest sphere's neighbourhood at phi 0.5 (4 neighbourhood radii
 # in the box edge, i.e. phi < 0.3 (L / (4 r_max at phi 0.3))^3; systematic sample, seed 1): UV omega = 100 allows
 # phi < 0.28 at N = 10,000 and 0.41 at 20,000, so it runs at 50,000 (0.79). The others at 10,000 allow: UV omega 50
-# phi < 0.66, UV 30 1.5, LN sigma 1.0 (size ratio 2848) 0.62, LN 0.75 1.7, the rest > 7.
+# phi < 0.66, UV 30 1.5, LN sigma 1.0 (size ratio 2848) 0.62, LN 0.75 1.7, the rest > 7. LN sigma 1.0 runs at
+# N = 10,000, but there the same rule caps every skin at L/4 - r_max ~ 200 r_min (the small spheres' class floors
+# ask for more), so it can also run at N = 50,000 (optional case, CASES=ln10n50k: size ratio 5949, cap ~1700
+# r_min; making its start took more than 5 CPU minutes on 2 Dec 2026 and was stopped unfinished).
 # Not part of CI.
 set -euo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -62,9 +66,11 @@ TABLE=(
   "ln05|LN|0.5|10000|--dist log-normal --sigma 0.5"
   "ln075|LN|0.75|10000|--dist log-normal --sigma 0.75"
   "ln10|LN|1.0|10000|--dist log-normal --sigma 1.0"
+  "ln10n50k|LN|1.0|50000|--dist log-normal --sigma 1.0"
 )
 all=$(printf '%s\n' "${TABLE[@]}" | cut -d'|' -f1 | tr '\n' ' ')
-cases=${CASES:-$all}
+optional="ln10n50k"  # not in the default CASES (its start was not made in the session: see above)
+cases=${CASES:-$(for c in $all; do [[ " $optional " == *" $c "* ]] || printf '%s ' "$c"; done)}
 for c in $cases; do
   [[ " $all " == *" $c "* ]] || { echo "unknown case '$c' (known: $all)" >&2; exit 1; }
 done

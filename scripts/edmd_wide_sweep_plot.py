@@ -73,15 +73,29 @@ def main(argv):
         ts = sorted((t for t in table if t["family"] == family), key=lambda t: t["ratio"])
         if not ts:
             continue
+        # A parameter that also runs at a larger N (LN sigma 1.0 at N = 50,000: less squeezed by the box) is drawn
+        # as an open marker beside the line, the line joins the smallest N of each parameter.
+        smallest = {}
+        for t in ts:
+            smallest[t["param"]] = min(smallest.get(t["param"], t["n"]), t["n"])
+        extra = [t for t in ts if t["n"] != smallest[t["param"]]]
+        ts = [t for t in ts if t["n"] == smallest[t["param"]]]
         x = [t["ratio"] for t in ts]
         y = [t["rate"] for t in ts]
         err = [[t["rate"] - t["lo"] for t in ts], [t["hi"] - t["rate"] for t in ts]]
         line = top.errorbar(x, y, yerr=err, fmt=style, capsize=3, label=f"{label} {', '.join(t['param'] for t in ts)}")
         for t in ts:
             if t["n"] != mono[0]["n"]:
-                top.annotate(f"N = {t['n']}", (t["ratio"], t["rate"]), textcoords="offset points", xytext=(5, -12),
+                top.annotate(f"N = {t['n']}", (t["ratio"], t["rate"]), textcoords="offset points", xytext=(-45, 6),
                              fontsize=8)
         bottom.plot(x, [mono_rate / t["rate"] for t in ts], style, color=line[0].get_color())
+        for t in extra:
+            colour = line[0].get_color()
+            top.errorbar([t["ratio"]], [t["rate"]], yerr=[[t["rate"] - t["lo"]], [t["hi"] - t["rate"]]], fmt=style[0],
+                         mfc="none", color=colour, capsize=3)
+            top.annotate(f"N = {t['n']}", (t["ratio"], t["rate"]), textcoords="offset points", xytext=(-45, 6),
+                         fontsize=8)
+            bottom.plot([t["ratio"]], [mono_rate / t["rate"]], style[0], mfc="none", color=colour)
     top.axhline(mono_rate, color="black", lw=1, ls="--", label=f"monodisperse ({mono_rate:.3g}/s)")
     top.set_xscale("log")
     top.set_yscale("log")
