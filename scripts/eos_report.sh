@@ -4,7 +4,8 @@
 # (eos/eos.hpp) and the seed's jamming-density fits; plus log-normal runs at the seed's own fast rate
 # (N = 16384, LN_* variables); plus the free-volume law near jamming (N = 1000 to Z = 1e12, NEARJ_* variables,
 # ~2 CPU minutes; NEARJ=0 skips it, NEARJ_FIXED=1 adds fixed-density points, ~5 CPU minutes more).
-# Not part of CI: ~17 CPU minutes (2026-11-22), under nice.
+# Not part of CI: ~17 CPU minutes for the cases of 2026-11-22, under nice; us100, ln0.75 and ln1.0 (2026-12-02)
+# add ~20 CPU minutes (ln1.0 alone ~16).
 #
 #   scripts/eos_report.sh [output-dir]        (default docs/eos; writes docs/eos.md next to it)
 #   POLYDEM=path/to/polydem N=4096 RUNS="fast|1e-3|1e4 slow|5e-4:1e4,2e-4|3e4" scripts/eos_report.sh
@@ -34,6 +35,7 @@ CASES=(
   "uv2|--dist uniform-volume --omega 2||Eq. 3.16 (UV)|"
   "uv4|--dist uniform-volume --omega 4||Eq. 3.16 (UV)|"
   "uv4-tri|--dist uniform-volume --omega 4|--equivalent tri|Eq. 3.16 (UV; tri equivalent)|"
+  "us100|--dist uniform-radius --omega 100||Eq. 3.15 (US)|"
 )
 LN_N=${LN_N:-16384}
 LN_SCHEDULE=${LN_SCHEDULE:-9.2e-3}
@@ -42,9 +44,16 @@ LN_CASES=(
   "ln0|--dist mono||Eq. 3.52 at sigma = 0 (phi_RCP measured at Gamma = 16e-3)|0.6373"
   "ln0.25|--dist log-normal --omega 0 --sigma 0.25||Eq. 3.52 (log-normal)|"
   "ln0.5|--dist log-normal --omega 0 --sigma 0.5||Eq. 3.52 (log-normal)|"
+  "ln0.75|--dist log-normal --omega 0 --sigma 0.75||Eq. 3.52 (log-normal)|"
+  "ln1.0|--dist log-normal --omega 0 --sigma 1.0||Eq. 3.52 (log-normal)||24576"
 )
-# sigma = 0.75 (size ratio 464 at N = 16384) ran at ~1e4 collisions/s with 20 neighbourhood exits per
-# collision in a test (2026-11-22), ~1 h for one run: left out.
+# Optional sixth field: N for that case (default LN_N). sigma = 0.75 and 1.0 were left out until the size-class
+# skins of issue 24 (2026-11-22: sigma 0.75 ran at ~1e4 collisions/s with 20 neighbourhood exits per collision).
+# The untruncated log-normal's largest sphere grows with N: the broad phase needs 4 of its neighbourhood radii in
+# the box edge, i.e. phi < 0.3 (L / (4 r_max at phi 0.3))^3. Systematic sample, seed 1: sigma = 0.75 at N = 16384
+# has size ratio 464 and allows phi < 2.1; sigma = 1.0 at N = 16384 (size ratio 3593) only phi < 0.73, below
+# its eq. 3.52 value 0.777 (the run would stop with "leaves no room for its neighbourhood"); N = 20000 allows
+# 0.78, N = 24576 (1.5 x 16384, size ratio 4330) 0.84, used here.
 
 START=$(date -u +%Y-%m-%dT%H:%M:%SZ)
 T0=$(date +%s)
@@ -70,6 +79,8 @@ one_run() {
     /usr/bin/time -f "%U %S" -o "$OUT/$id.time" nice -n 10 $POLYDEM jam -n "$n" $dist $extra --seed "$SEED" \
       --schedule "$schedule" --target-pressure "$target" --progress 30 --eos-csv "$OUT/$id.csv" > "$OUT/$id.log"
     echo $(($(date +%s) - s0)) > "$OUT/$id.wall"
+    date -u +%Y-%m-%dT%H:%MZ > "$OUT/$id.date"
+    awk -F: '/model name/{print $2; exit}' /proc/cpuinfo | sed 's/^ *//' > "$OUT/$id.cpu"
   fi
   local wall cpu phi zf pj cpp dev fv
   wall=$(cat "$OUT/$id.wall")
@@ -104,8 +115,8 @@ done
 # Log-normal at the seed's own fast rate (Gamma = 16e-3 against v0, i.e. 9.2e-3 here; N = 16384; Fig. 3.12,
 # eqs. 3.52/3.55), where the protocol matches the seed's apart from the start at phi0 = 0.3.
 for c in "${LN_CASES[@]}"; do
-  IFS='|' read -r name dist extra fitlabel fitvalue <<< "$c"
-  one_run "$name" "$dist" "$extra" "$fitlabel" "$fitvalue" "seedrate" "$LN_SCHEDULE" "$LN_TARGET" "$LN_N"
+  IFS='|' read -r name dist extra fitlabel fitvalue cn <<< "$c"
+  one_run "$name" "$dist" "$extra" "$fitlabel" "$fitvalue" "seedrate" "$LN_SCHEDULE" "$LN_TARGET" "${cn:-$LN_N}"
 done
 
 # One EOS plot per case: every run against Z_BMCSL, Z_OL, Z_CS and the free-volume law.
@@ -269,19 +280,38 @@ fi
 T1=$(date +%s)
 MD="$(dirname "$OUT")/$(basename "$OUT").md"
 REL=$(basename "$OUT")
-CPU_MODEL=$(awk -F: '/model name/{print $2; exit}' /proc/cpuinfo | sed 's/^ *//')
+# Machines of the runs (<case>-<run>.cpu, written since 2026-12-02), with their run counts.
+CPU_MODEL=$(tail -n +2 "$OUT/summary.csv" | while IFS=, read -r name tag rest; do
+  if [ -s "$OUT/$name-$tag.cpu" ]; then cat "$OUT/$name-$tag.cpu"; else echo "not recorded"; fi
+done | sort | uniq -c | awk '{n=$1; $1=""; sub(/^ /,""); printf "%s%s (%d runs)", (NR>1 ? "; " : ""), $0, n}')
 NCPU=$(nproc)
 GIT=$(git rev-parse --short HEAD 2>/dev/null || echo unknown)
 TOTAL_CPU=$(awk -F, 'NR>1 {s+=$14} END {printf "%.0f", s}' "$OUT/summary.csv")
 TOTAL_WALL=$(awk -F, 'NR>1 {s+=$13} END {printf "%.0f", s}' "$OUT/summary.csv")
-FIRST_LOG=$(ls -tr "$OUT"/*.log | grep -v '/jam12-' | head -1)
-LAST_LOG=$(ls -t "$OUT"/*.log | grep -v '/jam12-' | head -1)
+# When each compression finished: <case>-<run>.date (written since 2026-12-02); for older runs the date of the
+# commit that added the log (an upper bound; a checkout resets file times), else the log's file time.
+run_date() {
+  local id=$1 d
+  if [ -s "$OUT/$id.date" ]; then cat "$OUT/$id.date"; return; fi
+  d=$(git log -1 --diff-filter=A --format=%ct -- "$OUT/$id.log" 2>/dev/null || true)
+  if [ -n "$d" ]; then date -u -d "@$d" +%Y-%m-%dT%H:%MZ; else date -u -r "$OUT/$id.log" +%Y-%m-%dT%H:%MZ; fi
+}
+RUN_DATES=$(tail -n +2 "$OUT/summary.csv" | while IFS=, read -r name tag rest; do run_date "$name-$tag"; done | sort)
+FIRST_DATE=$(echo "$RUN_DATES" | head -1)
+LAST_DATE=$(echo "$RUN_DATES" | tail -1)
+LN_OWN_N=""
+for c in "${LN_CASES[@]}"; do
+  IFS='|' read -r name dist extra fitlabel fitvalue cn <<< "$c"
+  if [ -n "$cn" ]; then LN_OWN_N+="$name: N = $cn; "; fi
+done
+LN_OWN_N=${LN_OWN_N%; }
 {
   echo "# Equation of state and jamming densities (Ogarko's thesis ch. 3)"
   echo
-  echo "Generated by \`scripts/eos_report.sh\`: compressions finished between $(date -u -r "$FIRST_LOG" +%Y-%m-%dT%H:%MZ)"
-  echo "and $(date -u -r "$LAST_LOG" +%Y-%m-%dT%H:%MZ) ($TOTAL_CPU CPU seconds, $TOTAL_WALL s wall), tables and plots written $START"
-  echo "(REUSE=$REUSE). Machine: $CPU_MODEL, $NCPU cores shared with other jobs (wall times vary with the"
+  echo "Generated by \`scripts/eos_report.sh\`: compressions finished between $FIRST_DATE"
+  echo "and $LAST_DATE ($TOTAL_CPU CPU seconds, $TOTAL_WALL s wall; runs without a \`.date\` file dated by the commit"
+  echo "that added their log), tables and plots written $START"
+  echo "(REUSE=$REUSE). Machines: $CPU_MODEL, $NCPU cores shared with other jobs (wall times vary with the"
   echo "load; CPU seconds are the process's own). Tree at $GIT plus uncommitted work."
   echo
   echo "Each run: \`polydem jam -n <N> <dist> [--equivalent tri] --seed $SEED --schedule <schedule>"
@@ -291,7 +321,7 @@ LAST_LOG=$(ls -t "$OUT"/*.log | grep -v '/jam12-' | head -1)
     IFS='|' read -r tag schedule target <<< "$run"
     echo "* \`$tag\`: N = $N, schedule \`$schedule\`, stop at Z = $target"
   done
-  echo "* \`seedrate\` (log-normal cases): N = $LN_N, schedule \`$LN_SCHEDULE\` (the seed's Gamma = 16e-3 of Fig. 3.12), stop at Z = $LN_TARGET"
+  echo "* \`seedrate\` (log-normal cases): N = $LN_N${LN_OWN_N:+ ($LN_OWN_N, so that the box holds the neighbourhood of the largest sphere)}, schedule \`$LN_SCHEDULE\` (the seed's Gamma = 16e-3 of Fig. 3.12), stop at Z = $LN_TARGET"
   echo
   echo "O1, O2 and the seed's fits: \`polydem predict <dist>\`. Raw per-block data in \`docs/eos/<case>-<run>.csv\`"
   echo "(phi, Z, rate, collisions per particle, simulated time, wall seconds), logs in \`<case>-<run>.log\`."
