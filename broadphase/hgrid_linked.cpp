@@ -139,10 +139,8 @@ void HGridLinked::query(Index i, double reach, std::vector<Index>& out) const {
   std::sort(out.begin(), out.end());
 }
 
-void HGridLinked::neighbours(Index i, double reach, std::vector<Index>& out) const { query<false>(i, reach, out); }
-
 void HGridLinked::findNeighbours(const SphereView& /*spheres*/, Index i, double reach, std::vector<Index>& out) const {
-  neighbours(i, reach, out);
+  query<false>(i, reach, out);
 }
 
 void HGridLinked::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {

@@ -38,24 +38,23 @@ class HGridLinked final : public BroadPhase {
   std::size_t memoryBytes() const override;
   std::string describe() const override;
 
-  /// Sphere i now has its centre at x (inside the box; radius unchanged). O(1). What update() does for each
-  /// moved sphere, without the virtual call.
-  void move(Index i, const double x[3]);
-  /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending, from the index's own copy of the
-  /// positions. Clears `out` first.
-  void neighbours(Index i, double reach, std::vector<Index>& out) const;
-
  protected:
   void doBuild(const SphereView& spheres) override;
   void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
 
  private:
+  /// Sphere i now has its centre at x (inside the box; radius unchanged). O(1). What update() does for each
+  /// moved sphere.
+  void move(Index i, const double x[3]);
+
   struct Level {
     double rmax = 0.0;
     std::array<double, 3> inverseCell{};
     std::array<std::int32_t, 3> n{};
     std::vector<Index> head;  // first sphere of each cell, -1 if empty
   };
+  /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending, from the index's own copy of the
+  /// positions; counts cell accesses and pair tests with kCount. Clears `out` first.
   template <bool kCount>
   void query(Index i, double reach, std::vector<Index>& out) const;
   std::int64_t cellOf(const Level& lv, const double x[3]) const;

@@ -83,12 +83,6 @@ HardSphereSystem::HardSphereSystem(const Box& box, const Eigen::Matrix3Xd& posit
   hood_.resize(static_cast<std::size_t>(n));
   broad_ = broadphase::makeBroadPhase(options_.broadPhase);
   exits_ = broadphase::makeBroadPhase(options_.exitIndex);
-  if (!exits_->capabilities().complete) {
-    throw ConfigError(
-        fmt::format("exit index '{}' is not a complete broad phase: a missed neighbour would let two "
-                    "spheres pass through each other; use hgrid-linked or another complete backend",
-                    options_.exitIndex));
-  }
   rebuildNeighbourhoods();
   resetSchedule();
 }

@@ -68,7 +68,8 @@ struct SystemOptions {
   /// Broad phase over the neighbourhoods that answers exits (update() with the one re-centred
   /// neighbourhood, then findNeighbours()) and the later global rebuilds (build() + findPairs()). Any
   /// complete backend gives the same lists; one whose update() is O(|moved|) keeps an exit O(1):
-  /// hgrid-linked (broadphase/hgrid_linked.hpp). An incomplete backend is refused (ConfigError).
+  /// hgrid-linked (broadphase/hgrid_linked.hpp). Every registered backend is complete; an unknown name is a
+  /// ConfigError.
   std::string exitIndex = "hgrid-linked";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
