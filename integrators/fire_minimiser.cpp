@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -16,6 +17,9 @@
 namespace polydem::integrators {
 
 namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
 double resolveSkin(double skin, const ParticleStore& particles) {
   if (skin >= 0.0) return skin;
@@ -140,8 +144,10 @@ contact::ForceContext FireMinimiser::context() const {
 }
 
 void FireMinimiser::computeForces() {
+  const auto t0 = Clock::now();
   kernel_.run(model_, context());
   ++forceEvaluations_;
+  forceSeconds_ += seconds(t0, Clock::now());
 }
 
 double FireMinimiser::pairStiffness(double ri, double rj) const {
@@ -177,6 +183,7 @@ void FireMinimiser::updateMasses() {
 }
 
 void FireMinimiser::rebuild() {
+  const auto t0 = Clock::now();
   Eigen::Matrix3Xd& x = particles_.position();
   const Index n = particles_.count();
   for (Index i = 0; i < n; ++i) {
@@ -208,6 +215,7 @@ void FireMinimiser::rebuild() {
   }
   updateMasses();
   ++rebuildsInCall_;
+  broadSeconds_ += seconds(t0, Clock::now());
 }
 
 void FireMinimiser::scaleRadii(double factor) {
@@ -322,7 +330,16 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
   fs.validate();
   FireResult res;
   rebuildsInCall_ = 0;
-  MinimiserReport start = measure();
+  const auto callStart = Clock::now();
+  const double broadAtStart = broadSeconds_, forceAtStart = forceSeconds_;
+  double measureSeconds = 0.0;
+  auto timedMeasure = [&] {
+    const auto t0 = Clock::now();
+    MinimiserReport r = measure();
+    measureSeconds += seconds(t0, Clock::now());
+    return r;
+  };
+  MinimiserReport start = timedMeasure();
   if (model_.parameters().normal == contact::NormalModel::Hertz) {
     // Masses from the stiffness at the current overlaps (Hertz stiffens with overlap); 1e-4 without contacts.
     const double ratio = start.maxOverlapRatio > 0.0 ? start.maxOverlapRatio : 1e-4;
@@ -352,10 +369,15 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     res.stopReason = reason;
     res.iterations = it;
     res.rebuilds = rebuildsInCall_;
-    res.last = report ? *report : measure();
+    res.last = report ? *report : timedMeasure();
     res.last.iteration = it;
     res.last.dt = dt;
     particles_.velocity().setZero();
+    res.seconds.broadPhase = broadSeconds_ - broadAtStart;
+    res.seconds.force = forceSeconds_ - forceAtStart;
+    res.seconds.measure = measureSeconds;
+    res.seconds.update =
+        std::max(0.0, seconds(callStart, Clock::now()) - res.seconds.broadPhase - res.seconds.force - measureSeconds);
     return res;
   };
 
@@ -381,7 +403,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     }
     const double fmax = std::sqrt(fmaxSq);
     if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
-      const MinimiserReport now = measure();
+      const MinimiserReport now = timedMeasure();
       if (now.contacts + now.wallContacts == 0) return finish(true, "no contacts", it, &now);
       if (now.maxOverlap <= overlapFloor) return finish(true, "overlaps at round-off", it, &now);
       knownScale = std::max(now.meanContactForce, fs.referenceForce);
@@ -390,7 +412,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     if (it >= fs.maxIterations) return finish(false, "iteration budget", it, nullptr);
     if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", it, nullptr);
     if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) {
-      MinimiserReport now = measure();
+      MinimiserReport now = timedMeasure();
       now.iteration = it;
       now.dt = dt;
       knownScale = std::max(now.meanContactForce, fs.referenceForce);

@@ -93,12 +93,22 @@ struct MinimiserReport {
   double dt = 0.0;  ///< current FIRE step
 };
 
+/// Wall seconds of one minimise() call by part (steady clock), for the cost against a `relax` step.
+struct FirePhaseSeconds {
+  double broadPhase = 0.0;  ///< neighbour-list builds (wrapping, the build, the masses)
+  double force = 0.0;       ///< force-loop passes
+  double update = 0.0;      ///< the FIRE sums, mixing, kick and drift, the restarts
+  double measure = 0.0;     ///< energy, contact and pressure measurements (every 256 steps and for progress)
+  double total() const { return broadPhase + force + update + measure; }
+};
+
 struct FireResult {
   bool converged = false;
   std::string stopReason;  ///< "converged", "no contacts", "iteration budget", "uphill", "interrupted"
   std::int64_t iterations = 0;
   std::int64_t uphillSteps = 0;  ///< P <= 0 events
   std::int64_t rebuilds = 0;     ///< neighbour-list builds in this call
+  FirePhaseSeconds seconds;      ///< where this call's wall time went
   MinimiserReport last;
 };
 
@@ -166,6 +176,7 @@ class FireMinimiser {
   double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
   std::int64_t forceEvaluations_ = 0;
   std::int64_t rebuildsInCall_ = 0;
+  double broadSeconds_ = 0.0, forceSeconds_ = 0.0;  // running totals over the object's life
 };
 
 }  // namespace polydem::integrators

@@ -448,6 +448,12 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     out.last = r.last;
     fmt::print("FIRE steps              {} ({} uphill, {} neighbour-list builds)\n", r.iterations, r.uphillSteps,
                r.rebuilds);
+    const double perStep = r.iterations > 0 ? 1e6 / (static_cast<double>(r.iterations) * m.particles().count()) : 0.0;
+    fmt::print(
+        "FIRE time               {:.4f} us/particle/step ({:.3f} s): broad phase {:.4f}, force {:.4f}, update {:.4f}, "
+        "measurements {:.4f}\n",
+        r.seconds.total() * perStep, r.seconds.total(), r.seconds.broadPhase * perStep, r.seconds.force * perStep,
+        r.seconds.update * perStep, r.seconds.measure * perStep);
   }
   printState("final", out.last);
   fmt::print("time                    {:.2f} s, {} force evaluations, memory {:.1f} MB\n", clock.seconds(),
