@@ -8,9 +8,10 @@
 // stop after N_P<0,max uphill steps in a row.
 //
 // Forces come from the engine's own force loop (contact::selectForceKernel, the kernel a relax step runs)
-// over the engine's Verlet list, rebuilt when 2 max|dx| + 2 max dr exceeds the skin; rows are in canonical
-// (i, j) order, so the minimised state is bit-identical for every complete broad phase. One FIRE step is one
-// reduction pass (F.v, |v|^2, |F|^2, max |F_i|), one kick-mix-drift pass and the force loop: no allocation.
+// over the engine's Verlet list, rebuilt when the two largest displacements since the build plus 2 max dr exceed the
+// skin; rows are in canonical (i, j) order, so the minimised state is bit-identical for every complete broad phase. One
+// FIRE step is one reduction pass (F.v, |v|^2, |F|^2, max |F_i|), one kick-mix-drift pass and the force loop: no
+// allocation.
 //
 // Inertia (Jacobi preconditioning): the minimum does not depend on the masses, so they are chosen to make
 // every particle's vibration frequency about the same. m_i = k_self,i + sum_j k_ij over the Verlet candidates
@@ -142,7 +143,7 @@ class FireMinimiser {
   double packingFraction() const;
 
   const ParticleStore& particles() const { return particles_; }
-  /// Centres wrapped into [0, L) on periodic axes (the stored ones stray up to skin/2 outside between
+  /// Centres wrapped into [0, L) on periodic axes (the stored ones stray up to a skin outside between
   /// rebuilds), for outputs and analyses.
   Eigen::Matrix3Xd wrappedPositions() const;
   const Box& box() const { return box_; }
@@ -157,6 +158,9 @@ class FireMinimiser {
  private:
   contact::ForceContext context() const;
   void rebuild();
+  /// Whether some pair left out of the Verlet list may now touch (the displacements and radius growth since
+  /// the build, against the skin).
+  bool listStale() const;
   void computeForces();
   void updateMasses();
   /// Stiffness scale of pair (i, j) at the reference overlap (N/m).
@@ -176,6 +180,7 @@ class FireMinimiser {
   double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
   std::int64_t forceEvaluations_ = 0;
   std::int64_t rebuildsInCall_ = 0;
+  double pairDrift_ = 0.0;  ///< the two largest displacements since the build, summed (listStale())
   double broadSeconds_ = 0.0, forceSeconds_ = 0.0;  // running totals over the object's life
 };
 
