@@ -86,6 +86,22 @@ FireMinimiser::FireMinimiser(ParticleStore particles, const Box& box, const Mini
   }
   verlet_.setBlocks(settings_.threads);
   settings_.skin = verlet_.skin();
+  if (settings_.outerSkin < 0.0) {
+    // The default, 5 x skin, as far as the box allows: a periodic edge must hold 2 (2 r_max + outer skin)
+    // (the broad phase's condition); one level where even the skin is at that limit.
+    double room = std::numeric_limits<double>::infinity();
+    const double rMax = particles_.count() > 0 ? particles_.radius().maxCoeff() : 0.0;
+    for (int k = 0; k < 3; ++k) {
+      if (box_.periodic(k)) room = std::min(room, (0.5 * box_.length(k) - 2.0 * rMax) * (1.0 - 1e-9));
+    }
+    settings_.outerSkin = std::max(settings_.skin, std::min(5.0 * settings_.skin, room));
+  }
+  if (settings_.outerSkin == 0.0) settings_.outerSkin = settings_.skin;
+  if (!(settings_.outerSkin >= settings_.skin && std::isfinite(settings_.outerSkin))) {
+    throw ConfigError(fmt::format("minimise.outer_skin must be 0 (one level) or >= the skin {}, got {}", settings_.skin,
+                                  settings_.outerSkin));
+  }
+  verlet_.setOuterSkin(settings_.outerSkin);
 
   const Index n = particles_.count();
   if (n == 0) throw ConfigError("no particles to minimise");
@@ -184,6 +200,26 @@ void FireMinimiser::updateMasses() {
 
 void FireMinimiser::rebuild() {
   const auto t0 = Clock::now();
+  if (verlet_.twoLevel() && verlet_.builds() > 0 &&
+      verlet_.outerDrift(particles_.position()) + 2.0 * growthSinceOuter_ <= verlet_.outerSkin() - verlet_.skin()) {
+    // No pair outside the outer candidates can be within the skin: cut the list from them (the centres stay
+    // unwrapped, within the outer skin of their last build).
+    verlet_.refine(particles_.spheres(), box_);
+  } else {
+    broadPhaseBuild();
+  }
+  growthSinceBuild_ = 0.0;
+  pairDrift_ = 0.0;
+  if (settings_.threads > 1) {
+    crossScratch_.resize(contact::crossScratchSize(verlet_.list().crossCount(), false));
+    crossTouching_.resize(verlet_.list().crossCount());
+  }
+  updateMasses();
+  ++rebuildsInCall_;
+  broadSeconds_ += seconds(t0, Clock::now());
+}
+
+void FireMinimiser::broadPhaseBuild() {
   Eigen::Matrix3Xd& x = particles_.position();
   const Index n = particles_.count();
   for (Index i = 0; i < n; ++i) {
@@ -208,15 +244,8 @@ void FireMinimiser::rebuild() {
     }
   }
   verlet_.build(particles_.spheres(), box_);
-  growthSinceBuild_ = 0.0;
-  pairDrift_ = 0.0;
-  if (settings_.threads > 1) {
-    crossScratch_.resize(contact::crossScratchSize(verlet_.list().crossCount(), false));
-    crossTouching_.resize(verlet_.list().crossCount());
-  }
-  updateMasses();
-  ++rebuildsInCall_;
-  broadSeconds_ += seconds(t0, Clock::now());
+  growthSinceOuter_ = 0.0;
+  ++broadBuildsInCall_;
 }
 
 bool FireMinimiser::listStale() const {
@@ -231,7 +260,10 @@ void FireMinimiser::scaleRadii(double factor) {
   if (!(factor > 0.0 && std::isfinite(factor))) {
     throw ConfigError(fmt::format("scaleRadii: factor must be > 0, got {}", factor));
   }
-  if (factor > 1.0) growthSinceBuild_ += (factor - 1.0) * particles_.radius().maxCoeff();
+  if (factor > 1.0) {
+    growthSinceBuild_ += (factor - 1.0) * particles_.radius().maxCoeff();
+    growthSinceOuter_ += (factor - 1.0) * particles_.radius().maxCoeff();
+  }
   particles_.radius() *= factor;
   particles_.velocity().setZero();
   if (listStale()) {
@@ -339,6 +371,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
   fs.validate();
   FireResult res;
   rebuildsInCall_ = 0;
+  broadBuildsInCall_ = 0;
   const auto callStart = Clock::now();
   const double broadAtStart = broadSeconds_, forceAtStart = forceSeconds_;
   double measureSeconds = 0.0;
@@ -378,6 +411,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     res.stopReason = reason;
     res.iterations = it;
     res.rebuilds = rebuildsInCall_;
+    res.broadPhaseBuilds = broadBuildsInCall_;
     res.last = report ? *report : timedMeasure();
     res.last.iteration = it;
     res.last.dt = dt;

@@ -13,6 +13,11 @@
 // FIRE step is one reduction pass (F.v, |v|^2, |F|^2, max |F_i|), one kick-mix-drift pass and the force loop: no
 // allocation.
 //
+// Two-level list (MinimiserSettings::outerSkin, default 5 x skin): FIRE's growing step carries the particles
+// several times further per step than a relax step, so the list is rebuilt often; most rebuilds then cut the
+// list from the broad phase's candidates within the outer skin (O(pairs)) instead of running the broad phase,
+// and give the same list as a broad-phase build would.
+//
 // Inertia (Jacobi preconditioning): the minimum does not depend on the masses, so they are chosen to make
 // every particle's vibration frequency about the same. m_i = k_self,i + sum_j k_ij over the Verlet candidates
 // of i (k_ij the pair's normal stiffness; for Hertz at a reference overlap), i.e. the diagonal of the Hessian
@@ -71,6 +76,10 @@ struct FireSettings {
 struct MinimiserSettings {
   contact::ContactParameters contact;  ///< linear (constant or radius-scaled) or Hertz; e = 1, mu = 0
   double skin = -1.0;                  ///< Verlet skin (m); < 0 = 0.2 r_min
+  /// Two-level list (VerletList::setOuterSkin): the broad phase finds the pairs within this gap (m), and
+  /// the list is cut to `skin` from them until a pair may have closed outer - skin; < 0 = 5 x skin (less where a
+  /// periodic edge is too short for it), 0 or skin = one level (every rebuild runs the broad phase).
+  double outerSkin = -1.0;
   std::string broadPhase = "linked-cell";
   bool spatialSort = true;  ///< Morton order once at construction (ids travel with the particles)
   int threads = 1;          ///< OpenMP threads of the force loop (bit-identical results)
@@ -107,9 +116,10 @@ struct FireResult {
   bool converged = false;
   std::string stopReason;  ///< "converged", "no contacts", "iteration budget", "uphill", "interrupted"
   std::int64_t iterations = 0;
-  std::int64_t uphillSteps = 0;  ///< P <= 0 events
-  std::int64_t rebuilds = 0;     ///< neighbour-list builds in this call
-  FirePhaseSeconds seconds;      ///< where this call's wall time went
+  std::int64_t uphillSteps = 0;       ///< P <= 0 events
+  std::int64_t rebuilds = 0;          ///< neighbour-list builds in this call (broad phase or refined)
+  std::int64_t broadPhaseBuilds = 0;  ///< of which through the broad phase (the rest refined the outer list)
+  FirePhaseSeconds seconds;           ///< where this call's wall time went
   MinimiserReport last;
 };
 
@@ -157,7 +167,12 @@ class FireMinimiser {
 
  private:
   contact::ForceContext context() const;
+  /// A new Verlet list: refined from the outer candidates when they still hold every pair within the skin,
+  /// else through the broad phase (broadPhaseBuild()); the masses follow the list.
   void rebuild();
+  /// Wrap the centres (naming a particle that is not finite or left a walled box) and build through the
+  /// broad phase.
+  void broadPhaseBuild();
   /// Whether some pair left out of the Verlet list may now touch (the displacements and radius growth since
   /// the build, against the skin).
   bool listStale() const;
@@ -180,7 +195,9 @@ class FireMinimiser {
   double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
   std::int64_t forceEvaluations_ = 0;
   std::int64_t rebuildsInCall_ = 0;
-  double pairDrift_ = 0.0;  ///< the two largest displacements since the build, summed (listStale())
+  std::int64_t broadBuildsInCall_ = 0;
+  double growthSinceOuter_ = 0.0;  ///< largest radius growth since the last broad-phase build
+  double pairDrift_ = 0.0;         ///< the two largest displacements since the build, summed (listStale())
   double broadSeconds_ = 0.0, forceSeconds_ = 0.0;  // running totals over the object's life
 };
 

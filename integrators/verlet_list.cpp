@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "broadphase/parallel.hpp"
@@ -12,11 +13,18 @@
 namespace polydem::integrators {
 
 VerletList::VerletList(std::unique_ptr<broadphase::BroadPhase> backend, double skin)
-    : backend_(std::move(backend)), skin_(skin) {
+    : backend_(std::move(backend)), skin_(skin), outerSkin_(skin) {
   if (!backend_) throw ConfigError("VerletList: no broad-phase backend");
   if (!(skin >= 0.0 && std::isfinite(skin))) {
     throw ConfigError(fmt::format("run.skin must be a finite number >= 0, got {}", skin));
   }
+}
+
+void VerletList::setOuterSkin(double outer) {
+  if (!(outer >= skin_ && std::isfinite(outer))) {
+    throw ConfigError(fmt::format("outer skin must be finite and >= the skin {}, got {}", skin_, outer));
+  }
+  outerSkin_ = outer;
 }
 
 void VerletList::setThreads(int threads) {
@@ -48,10 +56,76 @@ void sortRow(Index* begin, Index* end) {
 }  // namespace
 
 void VerletList::build(const SphereView& spheres, const Box& box) {
-  const Index n = spheres.count();
-  backend_->build(spheres, box, skin_);
+  backend_->build(spheres, box, outerSkin_);
   backend_->findPairChunks(spheres, pairs_);
   ++builds_;
+  if (twoLevel()) {
+    fill(spheres, box, outerSkin_, outer_);
+    outerReference_ = spheres.centre;
+    refine(spheres, box);
+    --refines_;  // the refine of a build is part of it
+    return;
+  }
+  fill(spheres, box, skin_, list_);
+  finish(spheres);
+}
+
+void VerletList::refine(const SphereView& spheres, const Box& box) {
+  if (!twoLevel()) throw std::logic_error("VerletList::refine: one-level list (no outer skin)");
+  const Index n = spheres.count();
+  // Rows keep the order of the outer rows (ascending j), so the list is the one build() would give.
+  list_.offset.resize(static_cast<std::size_t>(n) + 1);
+  list_.neighbour.resize(outer_.neighbour.size());  // buffers only grow
+  Index k = 0;
+  list_.offset[0] = 0;
+  for (Index i = 0; i < n; ++i) {
+    for (Index c = outer_.offset[i]; c < outer_.offset[i + 1]; ++c) {
+      const Index j = outer_.neighbour[c];
+      if (broadphase::withinReach(spheres, box, i, j, skin_)) list_.neighbour[static_cast<std::size_t>(k++)] = j;
+    }
+    list_.offset[static_cast<std::size_t>(i) + 1] = k;
+  }
+  list_.neighbour.resize(static_cast<std::size_t>(k));
+  list_.wallParticle.clear();
+  list_.wallFace.clear();
+  for (std::size_t c = 0; c < outer_.wallParticle.size(); ++c) {
+    const Index i = outer_.wallParticle[c];
+    const int face = outer_.wallFace[c];
+    const int axis = face / 2;
+    const double x = spheres.centre(axis, i);
+    const double gap = (face % 2 == 0 ? x : box.length(axis) - x) - spheres.radius[i];
+    if (gap <= skin_) {
+      list_.wallParticle.push_back(i);
+      list_.wallFace.push_back(static_cast<std::int8_t>(face));
+    }
+  }
+  ++refines_;
+  finish(spheres);
+}
+
+double VerletList::outerDrift(const Eigen::Matrix3Xd& centres) const {
+  double first = 0.0, second = 0.0;
+  const Index n = centres.cols();
+  if (outerReference_.cols() != n) return std::numeric_limits<double>::infinity();
+  for (Index i = 0; i < n; ++i) {
+    const double dsq = (centres.col(i) - outerReference_.col(i)).squaredNorm();
+    if (!std::isfinite(dsq)) return std::numeric_limits<double>::infinity();
+    if (dsq > second) {
+      second = std::min(dsq, first);
+      first = std::max(dsq, first);
+    }
+  }
+  return std::sqrt(first) + std::sqrt(second);
+}
+
+void VerletList::finish(const SphereView& spheres) {
+  if (blocks_ > 1) list_.buildBlocks(blocks_);
+  reference_ = spheres.centre;  // same size after the first build: no allocation
+  referenceRadius_ = spheres.radius;
+}
+
+void VerletList::fill(const SphereView& spheres, const Box& box, double reach, contact::ContactList& target) {
+  const Index n = spheres.count();
 
   // CSR by i (a stable counting sort of the pairs), then each row sorted by j: canonical (i, j) order.
   // Several threads: each owns a contiguous range of rows and scans every chunk for the pairs of its rows
@@ -61,8 +135,8 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
   const int parts = broadphase::parallel::chunkCount(threads_, static_cast<std::size_t>(n)) > 1
                         ? broadphase::parallel::usable(threads_)
                         : 1;
-  list_.offset.assign(static_cast<std::size_t>(n) + 1, 0);
-  Index* offset = list_.offset.data();
+  target.offset.assign(static_cast<std::size_t>(n) + 1, 0);
+  Index* offset = target.offset.data();
   broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
                                      [&](std::size_t lo, std::size_t hi) {
                                        for (std::size_t k = 0; k < chunks; ++k) {
@@ -72,9 +146,9 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
                                        }
                                      });
   for (Index i = 0; i < n; ++i) offset[i + 1] += offset[i];
-  fill_.assign(list_.offset.begin(), list_.offset.end() - 1);
-  list_.neighbour.resize(static_cast<std::size_t>(offset[n]));
-  Index* neighbour = list_.neighbour.data();
+  fill_.assign(target.offset.begin(), target.offset.end() - 1);
+  target.neighbour.resize(static_cast<std::size_t>(offset[n]));
+  Index* neighbour = target.neighbour.data();
   Index* fill = fill_.data();
   broadphase::parallel::forEachRange(threads_, static_cast<std::size_t>(n), static_cast<std::size_t>(parts),
                                      [&](std::size_t lo, std::size_t hi) {
@@ -95,28 +169,25 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
                                      });
 
   // Wall candidates: particles within the skin of a non-periodic face.
-  list_.wallParticle.clear();
-  list_.wallFace.clear();
+  target.wallParticle.clear();
+  target.wallFace.clear();
   if (box.hasWalls()) {
     for (Index i = 0; i < n; ++i) {
       const double r = spheres.radius[i];
       for (int axis = 0; axis < 3; ++axis) {
         if (box.periodic(axis)) continue;
         const double x = spheres.centre(axis, i);
-        if (x - r <= skin_) {
-          list_.wallParticle.push_back(i);
-          list_.wallFace.push_back(static_cast<std::int8_t>(2 * axis));
+        if (x - r <= reach) {
+          target.wallParticle.push_back(i);
+          target.wallFace.push_back(static_cast<std::int8_t>(2 * axis));
         }
-        if (box.length(axis) - x - r <= skin_) {
-          list_.wallParticle.push_back(i);
-          list_.wallFace.push_back(static_cast<std::int8_t>(2 * axis + 1));
+        if (box.length(axis) - x - r <= reach) {
+          target.wallParticle.push_back(i);
+          target.wallFace.push_back(static_cast<std::int8_t>(2 * axis + 1));
         }
       }
     }
   }
-  if (blocks_ > 1) list_.buildBlocks(blocks_);
-  reference_ = spheres.centre;  // same size after the first build: no allocation
-  referenceRadius_ = spheres.radius;
 }
 
 void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pairKeys,
@@ -138,8 +209,10 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
 }
 
 std::size_t VerletList::memoryBytes() const {
-  return backend_->memoryBytes() + list_.memoryBytes() + pairs_.memoryBytes() + fill_.capacity() * sizeof(Index) +
-         static_cast<std::size_t>(reference_.size() + referenceRadius_.size()) * sizeof(double);
+  return backend_->memoryBytes() + list_.memoryBytes() + outer_.memoryBytes() + pairs_.memoryBytes() +
+         fill_.capacity() * sizeof(Index) +
+         static_cast<std::size_t>(reference_.size() + referenceRadius_.size() + outerReference_.size()) *
+             sizeof(double);
 }
 
 void VerletList::validate(const SphereView& spheres, const Box& box) const {

@@ -25,6 +25,11 @@
 
 namespace polydem::integrators {
 
+// Two levels (setOuterSkin): build() asks the backend for the pairs within an outer skin S > skin and keeps
+// them; refine() cuts the list to the skin from those candidates alone (O(P_S), no broad phase), which gives
+// exactly the list build() would give while no pair has closed more than S - skin since the last build():
+// outerDrift() bounds that closure. Positions are not wrapped between builds, so a refine needs centres
+// within S of their last build.
 class VerletList {
  public:
   /// `skin` in metres (>= 0; ConfigError otherwise).
@@ -33,6 +38,19 @@ class VerletList {
   /// Rebuild from the current spheres (centres inside the box: wrap periodic coordinates first).
   /// O(N + P) plus the backend's build.
   void build(const SphereView& spheres, const Box& box);
+  /// Two levels: the backend's candidates within `outer` (>= skin, finite; ConfigError otherwise) at each
+  /// build(); outer == skin is one level (the default). Takes effect at the next build.
+  void setOuterSkin(double outer);
+  double outerSkin() const { return outerSkin_; }
+  bool twoLevel() const { return outerSkin_ > skin_; }
+  /// The list from the candidates of the last build() alone (two levels only; std::logic_error otherwise),
+  /// against the current spheres: the list build() would give if outerDrift() + 2 max dr <= S - skin.
+  void refine(const SphereView& spheres, const Box& box);
+  /// The two largest displacements since the last build(), summed (the most any pair can have closed),
+  /// +inf when a centre is not finite. O(N).
+  double outerDrift(const Eigen::Matrix3Xd& centres) const;
+  /// refine() calls since the last build() and in all.
+  std::int64_t refines() const { return refines_; }
 
   /// Also split the list into `blocks` thread blocks (ContactList::buildBlocks) at every build, for the
   /// threaded force loop; 0 or 1 = none (the default). Takes effect at the next build.
@@ -62,8 +80,16 @@ class VerletList {
 
  private:
   std::unique_ptr<broadphase::BroadPhase> backend_;
+  /// Rows and wall candidates from the backend's pairs (pairs_) within `reach`, into `target`.
+  void fill(const SphereView& spheres, const Box& box, double reach, contact::ContactList& target);
+  void finish(const SphereView& spheres);
+
   double skin_;
+  double outerSkin_;
   std::int64_t builds_ = 0;
+  std::int64_t refines_ = 0;
+  contact::ContactList outer_;  ///< two levels: the candidates within outerSkin_ at the last build
+  Eigen::Matrix3Xd outerReference_;
   int blocks_ = 0;
   int threads_ = 1;
   contact::ContactList list_;

@@ -54,6 +54,7 @@ struct MinimiseOptions {
   double dtMaxFactor = 10.0;
   std::string broadPhase = "auto";
   double skin = -1.0;
+  double outerSkin = -1.0;
   int threads = 1;
   // pressure protocol
   double targetPressure = 0.0;
@@ -120,6 +121,11 @@ void addOptions(CLI::App* cmd, MinimiseOptions* o) {
                   "broad phase of the neighbour list (auto, linked-cell, hgrid-td, ...)")
       ->capture_default_str();
   cmd->add_option("--skin", o->skin, "Verlet skin (length; default 0.2 r_min)")->check(finitePositive());
+  cmd->add_option("--outer-skin", o->outerSkin,
+                  "two-level Verlet list: the broad phase finds the pairs within this gap, and rebuilds cut the "
+                  "list to the skin from them while they hold every contact (length, >= skin; default 5 x skin; "
+                  "0 = one level)")
+      ->check(finiteNonNegative());
   cmd->add_option("--threads", o->threads, "OpenMP threads of the force loop (bit-identical results)")
       ->check(CLI::Range(1, 256))
       ->capture_default_str();
@@ -214,6 +220,7 @@ integrators::MinimiserSettings settingsFrom(const MinimiseOptions& o) {
   s.contact.stiffness = o.stiffness;
   s.broadPhase = o.broadPhase;
   s.skin = o.skin;
+  s.outerSkin = o.outerSkin;
   s.threads = o.threads;
   s.fire.forceTolerance = o.forceTolerance;
   s.fire.maxIterations = static_cast<std::int64_t>(o.maxIterations);
@@ -446,8 +453,8 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
                                                r.last.residual, r.iterations, r.stopReason);
     out.iterations = r.iterations;
     out.last = r.last;
-    fmt::print("FIRE steps              {} ({} uphill, {} neighbour-list builds)\n", r.iterations, r.uphillSteps,
-               r.rebuilds);
+    fmt::print("FIRE steps              {} ({} uphill, {} neighbour-list builds, {} of them through the broad phase)\n",
+               r.iterations, r.uphillSteps, r.rebuilds, r.broadPhaseBuilds);
     const double perStep = r.iterations > 0 ? 1e6 / (static_cast<double>(r.iterations) * m.particles().count()) : 0.0;
     fmt::print(
         "FIRE time               {:.4f} us/particle/step ({:.3f} s): broad phase {:.4f}, force {:.4f}, update {:.4f}, "
