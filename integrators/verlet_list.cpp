@@ -53,6 +53,12 @@ void sortRow(Index* begin, Index* end) {
   }
 }
 
+/// Gap between a sphere (centre coordinate x along the face's axis, radius r) and wall face `face` (2 axis:
+/// the face at 0, 2 axis + 1: the face at L): the one wall-candidate criterion of fill() and cutFromOuter().
+double wallGap(const Box& box, int face, double x, double r) {
+  return (face % 2 == 0 ? x : box.length(face / 2) - x) - r;
+}
+
 }  // namespace
 
 void VerletList::build(const SphereView& spheres, const Box& box) {
@@ -62,8 +68,7 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
   if (twoLevel()) {
     fill(spheres, box, outerSkin_, outer_);
     outerReference_ = spheres.centre;
-    refine(spheres, box);
-    --refines_;  // the refine of a build is part of it
+    cutFromOuter(spheres, box);
     return;
   }
   fill(spheres, box, skin_, list_);
@@ -72,6 +77,11 @@ void VerletList::build(const SphereView& spheres, const Box& box) {
 
 void VerletList::refine(const SphereView& spheres, const Box& box) {
   if (!twoLevel()) throw std::logic_error("VerletList::refine: one-level list (no outer skin)");
+  cutFromOuter(spheres, box);
+  ++refines_;
+}
+
+void VerletList::cutFromOuter(const SphereView& spheres, const Box& box) {
   const Index n = spheres.count();
   // Rows keep the order of the outer rows (ascending j), so the list is the one build() would give.
   list_.offset.resize(static_cast<std::size_t>(n) + 1);
@@ -91,15 +101,11 @@ void VerletList::refine(const SphereView& spheres, const Box& box) {
   for (std::size_t c = 0; c < outer_.wallParticle.size(); ++c) {
     const Index i = outer_.wallParticle[c];
     const int face = outer_.wallFace[c];
-    const int axis = face / 2;
-    const double x = spheres.centre(axis, i);
-    const double gap = (face % 2 == 0 ? x : box.length(axis) - x) - spheres.radius[i];
-    if (gap <= skin_) {
+    if (wallGap(box, face, spheres.centre(face / 2, i), spheres.radius[i]) <= skin_) {
       list_.wallParticle.push_back(i);
       list_.wallFace.push_back(static_cast<std::int8_t>(face));
     }
   }
-  ++refines_;
   finish(spheres);
 }
 
@@ -177,13 +183,11 @@ void VerletList::fill(const SphereView& spheres, const Box& box, double reach, c
       for (int axis = 0; axis < 3; ++axis) {
         if (box.periodic(axis)) continue;
         const double x = spheres.centre(axis, i);
-        if (x - r <= reach) {
-          target.wallParticle.push_back(i);
-          target.wallFace.push_back(static_cast<std::int8_t>(2 * axis));
-        }
-        if (box.length(axis) - x - r <= reach) {
-          target.wallParticle.push_back(i);
-          target.wallFace.push_back(static_cast<std::int8_t>(2 * axis + 1));
+        for (const int face : {2 * axis, 2 * axis + 1}) {
+          if (wallGap(box, face, x, r) <= reach) {
+            target.wallParticle.push_back(i);
+            target.wallFace.push_back(static_cast<std::int8_t>(face));
+          }
         }
       }
     }

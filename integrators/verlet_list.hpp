@@ -49,7 +49,7 @@ class VerletList {
   /// The two largest displacements since the last build(), summed (the most any pair can have closed),
   /// +inf when a centre is not finite. O(N).
   double outerDrift(const Eigen::Matrix3Xd& centres) const;
-  /// refine() calls since the last build() and in all.
+  /// refine() calls in all (a two-level build() cuts its list too, but counts as a build).
   std::int64_t refines() const { return refines_; }
 
   /// Also split the list into `blocks` thread blocks (ContactList::buildBlocks) at every build, for the
@@ -83,6 +83,8 @@ class VerletList {
   /// Rows and wall candidates from the backend's pairs (pairs_) within `reach`, into `target`.
   void fill(const SphereView& spheres, const Box& box, double reach, contact::ContactList& target);
   void finish(const SphereView& spheres);
+  /// The list within the skin from the outer candidates (the work of refine(), also the last step of build()).
+  void cutFromOuter(const SphereView& spheres, const Box& box);
 
   double skin_;
   double outerSkin_;

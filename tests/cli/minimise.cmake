@@ -13,6 +13,8 @@ polydem_cli_test(NAME minimise_one_sphere COMMAND minimise -i minimise_one.txt E
                  LABELS minimise)
 polydem_cli_test(NAME minimise_count_one COMMAND minimise -n 1 EXIT 2 PASS "--count 1: a minimisation needs at least 2"
                  LABELS minimise)
+polydem_cli_test(NAME minimise_outer_skin_below_skin COMMAND minimise -n 200 --phi0 0.7 --skin 0.2 --outer-skin 0.1
+                 EXIT 2 PASS "outer_skin must be 0 .one level. or >= the skin 0.2, got 0.1" FAIL "FIRE steps" LABELS minimise)
 polydem_cli_test(NAME minimise_count_zero COMMAND minimise EXIT 2 PASS "--count 0" LABELS minimise)
 polydem_cli_test(NAME minimise_dense COMMAND minimise -n 200 --phi0 0.75 --seed 2 -o minimise_dense.h5 EXIT 0
                  PASS "result +converged" LABELS minimise)

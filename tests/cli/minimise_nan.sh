@@ -4,7 +4,7 @@
 set -u
 polydem="$1"; cd "$2" || exit 1
 status=0
-for option in --count --phi0 --stiffness --force-tolerance --max-iterations --dt --dt-max-factor --skin \
+for option in --count --phi0 --stiffness --force-tolerance --max-iterations --dt --dt-max-factor --skin --outer-skin \
               --target-pressure --pressure-tolerance --initial-step --max-step --progress; do
   for value in nan inf; do
     out="$("$polydem" minimise -n 20 "$option" "$value" 2>&1)"; code=$?
