@@ -33,10 +33,13 @@
 // is measured every 256 steps (one O(P) pass: < 1% of the steps) and whenever the residual looks converged.
 // The relative criterion is scale-free (any stiffness, any pressure). Its floor is round-off: a centre is
 // known to eps L (L the box edge), so a force to eps L k; relative to a contact force k delta, the floor is
-// eps L / delta. For N = 1000 monodisperse spheres at p/k = 1e-7 (delta ~ 1e-7 d, L ~ 10 d) that is ~1e-8;
-// the default 1e-9 x max(<F_c>, referenceForce) with referenceForce the mean contact force at the target
-// pressure leaves a decade of margin in the pressure protocol. Not converged after maxIterations (or after
-// maxUphill uphill steps in a row): FireResult::converged = false with the residual reached.
+// eps L / delta, which grows with N^(1/3) and 1/p: ~1e-8 for N = 1000 at p/k = 1e-7, and 3-5e-9 measured for
+// N = 10^4 equal spheres at p/k = 1e-6 (L = 40 d), above the default 1e-9. So a fourth stop: "round-off
+// floor", when the largest Jacobi step max_i |F_i| / m_i is below eps max(L) (MinimiserReport::stepUlps <= 1:
+// the forces ask no particle to move by a representable amount) and the residual has not halved for 16384
+// steps; converged = true, and the residual reached is reported beside the tolerance that was asked for. Not
+// converged after maxIterations (or after maxUphill uphill steps in a row): FireResult::converged = false with
+// the residual reached.
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
@@ -93,7 +96,11 @@ struct MinimiserReport {
   double maxForce = 0.0;          ///< max_i |F_i| (N)
   double meanContactForce = 0.0;  ///< <|F_n|> over contacts (N); 0 without contacts
   double residual = 0.0;          ///< maxForce / max(meanContactForce, referenceForce); 0 when both are 0
-  std::size_t contacts = 0;       ///< particle pairs with overlap > 0
+  /// Largest Jacobi step max_i |F_i| / m_i (m) in units of the round-off of a coordinate, eps max(L): the
+  /// move the remaining forces ask for, against the resolution of the positions (about 1 at the round-off
+  /// floor, where no tolerance below can be met).
+  double stepUlps = 0.0;
+  std::size_t contacts = 0;  ///< particle pairs with overlap > 0
   std::size_t wallContacts = 0;
   double maxOverlapRatio = 0.0;  ///< largest overlap / smaller radius
   double maxOverlap = 0.0;       ///< largest overlap (m)
@@ -114,7 +121,8 @@ struct FirePhaseSeconds {
 
 struct FireResult {
   bool converged = false;
-  std::string stopReason;  ///< "converged", "no contacts", "iteration budget", "uphill", "interrupted"
+  std::string stopReason;  ///< "converged", "no contacts", "overlaps at round-off", "round-off floor", "iteration
+                           ///< budget", "uphill", "interrupted"
   std::int64_t iterations = 0;
   std::int64_t uphillSteps = 0;       ///< P <= 0 events
   std::int64_t rebuilds = 0;          ///< neighbour-list builds in this call (broad phase or refined)

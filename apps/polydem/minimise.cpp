@@ -246,6 +246,7 @@ struct Outcome {
   bool ok = false;
   bool interrupted = false;
   std::string stopReason;
+  std::string fireStop;  ///< why the last minimisation stopped ("converged", "round-off floor", ...)
   std::int64_t iterations = 0;
   integrators::MinimiserReport last;
 };
@@ -328,6 +329,7 @@ void writeOutput(const MinimiseOptions& o, const Start& start, const integrators
   d.attributes["energy"] = fmt::format("{:.17g}", out.last.energy);
   d.attributes["residual_force"] = fmt::format("{:.6g}", out.last.residual);
   d.attributes["fire_iterations"] = std::to_string(out.iterations);
+  d.attributes["fire_stop_reason"] = out.fireStop;
   if (o.targetPressure > 0.0 && out.ok)
     d.attributes["phi_j_estimate"] = fmt::format("{:.17g}", out.last.packingFraction);
   // `polydem analyze` treats the file as a hard-sphere packing whose contact gap follows from its reduced
@@ -417,9 +419,11 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
   auto fireProgress = [&](const integrators::MinimiserReport& r) {
     if (clock.seconds() - lastPrint < o.progressSeconds) return;
     lastPrint = clock.seconds();
-    fmt::print("  FIRE {:>9}  energy {:.6g}  residual {:.3g}  contacts {}  p/k {:.4g}  dt {:.3g}  {:.1f} s\n",
-               r.iteration, r.energy, r.residual, r.contacts + r.wallContacts, r.reducedPressure, r.dt,
-               clock.seconds());
+    fmt::print(
+        "  FIRE {:>9}  energy {:.6g}  residual {:.3g} (step {:.3g} ulp)  contacts {}  p/k {:.4g}  dt {:.3g}  {:.1f} "
+        "s\n",
+        r.iteration, r.energy, r.residual, r.stepUlps, r.contacts + r.wallContacts, r.reducedPressure, r.dt,
+        clock.seconds());
   };
 
   Outcome out;
@@ -443,6 +447,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     out.stopReason = r.stopReason;
     out.iterations = r.fireIterations;
     out.last = r.lastFire.last;
+    out.fireStop = r.lastFire.stopReason;
     fmt::print("minimisations           {} ({} FIRE steps)\n", r.steps, r.fireIterations);
   } else {
     const integrators::FireResult r = m.minimise(fireProgress, true);
@@ -453,6 +458,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
                                                r.last.residual, r.iterations, r.stopReason);
     out.iterations = r.iterations;
     out.last = r.last;
+    out.fireStop = r.stopReason;
     fmt::print("FIRE steps              {} ({} uphill, {} neighbour-list builds, {} of them through the broad phase)\n",
                r.iterations, r.uphillSteps, r.rebuilds, r.broadPhaseBuilds);
     const double perStep = r.iterations > 0 ? 1e6 / (static_cast<double>(r.iterations) * m.particles().count()) : 0.0;
@@ -463,6 +469,13 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
         r.seconds.update * perStep, r.seconds.measure * perStep);
   }
   printState("final", out.last);
+  if (out.fireStop == "round-off floor") {
+    fmt::print(
+        "note                    FIRE stopped at the round-off floor: residual {:.3g} against the tolerance {:.3g}, "
+        "which this state cannot reach (the forces ask no sphere to move by a representable amount, step {:.3g} "
+        "ulp of the coordinates, and the residual stopped falling)\n",
+        out.last.residual, o.forceTolerance, out.last.stepUlps);
+  }
   fmt::print("time                    {:.2f} s, {} force evaluations, memory {:.1f} MB\n", clock.seconds(),
              m.forceEvaluations(), static_cast<double>(m.memoryBytes()) / 1e6);
 

@@ -92,6 +92,29 @@ TEST(FireMinimiser, IterationBudgetIsReported) {
 
 // The phase split of a call accounts for its wall time: every part >= 0, list builds timed when some were
 // made, and the parts add up to the call as timed from outside (within the time of the timer calls).
+// A tolerance below round-off (1e-15 of the mean contact force; the floor is eps L / delta ~ 1e-13 here):
+// FIRE ends at the round-off floor, says so and reports the residual it reached, instead of spending the
+// iteration budget (the code before ran to the budget and reported "not converged").
+TEST(FireMinimiser, ToleranceBelowRoundOffEndsAtTheFloor) {
+  auto start = randomSoftStart(300, 0.7, 3);
+  MinimiserSettings s = harmonicSettings();
+  s.fire.forceTolerance = 1e-15;
+  s.fire.maxIterations = 300000;
+  FireMinimiser m(std::move(start.particles), start.box, s);
+  const FireResult r = m.minimise();
+  EXPECT_TRUE(r.converged);
+  EXPECT_EQ(r.stopReason, "round-off floor");
+  EXPECT_LT(r.iterations, s.fire.maxIterations);
+  EXPECT_LE(r.last.stepUlps, 1.0);
+  EXPECT_GT(r.last.residual, s.fire.forceTolerance);
+  EXPECT_LT(r.last.residual, 1e-10);  // a minimum to round-off, not a state stopped early
+  // A reachable tolerance still ends on the tolerance.
+  s.fire.forceTolerance = 1e-9;
+  auto again = randomSoftStart(300, 0.7, 3);
+  FireMinimiser m2(std::move(again.particles), again.box, s);
+  EXPECT_EQ(m2.minimise().stopReason, "converged");
+}
+
 TEST(FireMinimiser, PhaseSecondsAddUpToTheCall) {
   auto start = randomSoftStart(512, 0.72, 7);
   MinimiserSettings s = harmonicSettings();
