@@ -462,7 +462,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       if (fmax <= fs.forceTolerance * knownScale) return finish(true, "converged", it, &now);
       // The round-off floor: the remaining forces ask every particle to move by less than the resolution of
       // its coordinates, and the residual has not halved for kStallSteps. A tolerance below that floor cannot
-      // be met (seen: 10^4 equal spheres at p/k 1e-6, residual hovering at 3-5e-9 against 1e-9 for 10^5
+      // be met (seen: 10^4 equal spheres at p/k 1e-6, residual hovering at 3-5e-9 against 1e-9 for 1.3 million
       // steps); stop and say so rather than spend the iteration budget.
       if (now.residual < 0.5 * bestResidual) {
         bestResidual = now.residual;
