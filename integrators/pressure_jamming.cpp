@@ -29,6 +29,10 @@ void PressureJammingSettings::validate() const {
     throw ConfigError(fmt::format("jam_soft.min_bracket must be in (0, 1e-3), got {}", minBracket));
   }
   if (maxSteps < 1) throw ConfigError(fmt::format("jam_soft.max_steps must be >= 1, got {}", maxSteps));
+  if (!(jammingEstimate == 0.0 || (jammingEstimate > 0.0 && jammingEstimate < 1.0))) {
+    throw ConfigError(fmt::format("jam_soft.jamming_estimate must be 0 (none) or a packing fraction in (0, 1), got {}",
+                                  jammingEstimate));
+  }
 }
 
 PressureJammingResult jamToPressure(FireMinimiser& minimiser, const PressureJammingSettings& settings,
@@ -102,6 +106,11 @@ PressureJammingResult jamToPressure(FireMinimiser& minimiser, const PressureJamm
     if (lastPressure > 1e-3 * target && p > 1e-3 * target && lastPressure != p) {
       const double secant =
           phi + (linearised(target) - linearised(p)) * (phi - lastPhi) / (linearised(p) - linearised(lastPressure));
+      if (std::abs(secant - phi) <= step * phi) next = secant;
+    } else if (settings.jammingEstimate > 0.0 && p > 1e-3 * target && phi > settings.jammingEstimate) {
+      // One jammed state and the start's phi_J estimate: the secant through (estimate, 0) and this state.
+      const double secant =
+          settings.jammingEstimate + (phi - settings.jammingEstimate) * linearised(target) / linearised(p);
       if (std::abs(secant - phi) <= step * phi) next = secant;
     }
     action = next > phi ? "compress" : "decompress";

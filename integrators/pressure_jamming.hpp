@@ -6,9 +6,10 @@
 // below the target, decompress while above, halving the relative step at each reversal (the step doubles, up
 // to maxStep, until the first reversal). Two jammed states in a row give the secant on p^(1/e) (e = 1
 // harmonic, 3/2 Hertz: p ~ (phi - phi_J)^e, so p^(1/e) is linear in phi near jamming), taken when it lies
-// within the current step. A global bisection bracket is not used: a state far above unjams on decompression
-// and jams again at another phi, so an old upper end becomes stale (seen in tests at N = 256).
-// Reached when |p - target| <= pressureTolerance x target.
+// within the current step (with one jammed state and a known phi_J estimate of the start, the secant
+// through (estimate, 0) and that state). A global bisection bracket is not used: a state far above unjams on
+// decompression and jams again at another phi, so an old upper end becomes stale (seen in tests at N = 256). Reached
+// when |p - target| <= pressureTolerance x target.
 //
 // phi_J is the packing fraction at the final state (at p/k = target it differs from the p -> 0 limit by
 // about target / (dp/dphi), 1e-7 at the default target). Contacts, rattlers and the backbone's contact
@@ -31,6 +32,10 @@ struct PressureJammingSettings {
   double maxStep = 0.02;            ///< largest relative change of phi per step while unbracketed
   double minBracket = 1e-13;        ///< give up when the bracket's relative width falls below (round-off)
   int maxSteps = 300;               ///< minimisations in all
+  /// phi_J of the start if known (0 = none), e.g. the estimate phi / (1 - 3/P) of a hard-sphere packing at
+  /// reduced pressure P (`polydem jam`): while only one jammed state is known, the secant runs through
+  /// (jammingEstimate, p = 0) and that state, taken like the two-state secant only within the current step.
+  double jammingEstimate = 0.0;
   /// Throws ConfigError naming the key (jam_soft.target_pressure, ...).
   void validate() const;
 };

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <vector>
@@ -309,6 +310,22 @@ io::ContactData minimisedContacts(const integrators::FireMinimiser& m, const io:
   return c;
 }
 
+/// The hard-sphere phi_J estimate of a `polydem jam` input (attribute phi_j_estimate), 0 for any other start.
+/// A value that is not a packing fraction is an error naming the file and the attribute.
+double jammingEstimateOf(const MinimiseOptions& o, const Start& start) {
+  const auto& a = start.data.attributes;
+  const auto gen = a.find("generator");
+  const auto est = a.find("phi_j_estimate");
+  if (o.input.empty() || gen == a.end() || gen->second != "polydem jam" || est == a.end()) return 0.0;
+  char* end = nullptr;
+  const double v = std::strtod(est->second.c_str(), &end);
+  if (end == est->second.c_str() || *end != '\0' || !(v > 0.0 && v < 1.0)) {
+    throw InputError(
+        fmt::format("{}: attribute phi_j_estimate = '{}' is not a packing fraction in (0, 1)", o.input, est->second));
+  }
+  return v;
+}
+
 void writeOutput(const MinimiseOptions& o, const Start& start, const integrators::FireMinimiser& m, const Outcome& out,
                  const jamming::ContactNetwork& net) {
   io::ParticleData d;
@@ -434,7 +451,12 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     js.initialStep = o.initialStep;
     js.maxStep = o.maxStep;
     js.maxSteps = o.maxSteps;
+    js.jammingEstimate = jammingEstimateOf(o, start);
     js.validate();
+    if (js.jammingEstimate > 0.0) {
+      fmt::print("phi_J estimate          {:.10f} (the input's phi_j_estimate from polydem jam: the first secant)\n",
+                 js.jammingEstimate);
+    }
     m.fireSettings().referenceForce = m.contactForceAtPressure(o.targetPressure);
     auto onStep = [&](const integrators::JammingStep& s) {
       fmt::print("step {:>4} {:<10} phi {:.12f}  p/k {:.6g}  FIRE {} ({}, residual {:.3g})  contacts {}  {:.1f} s\n",

@@ -8,6 +8,8 @@ out="$("$polydem" minimise -i minimise_hs.h5 --target-pressure 1e-5 --progress 0
 printf '%s\n' "$out"
 grep -q "result                  target reached" <<<"$out"
 grep -q "^phi_J" <<<"$out"
+# the hard-sphere phi_J estimate of the input sets the first secant of the protocol
+grep -q "^phi_J estimate          0\.6[0-9]* (the input.s phi_j_estimate from polydem jam" <<<"$out"
 ana="$("$polydem" analyze minimise_soft.h5 2>&1)"
 printf '%s\n' "$ana"
 grep -q "no overlap beyond the contact tolerance" <<<"$ana"

@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <vector>
 
+#include "core/errors.hpp"
 #include "tests/integrators/minimise_scenes.hpp"
 
 namespace polydem::integrators {
@@ -43,6 +45,35 @@ TEST(PressureJamming, MonodisperseReachesPhiJAndIsostaticity) {
   EXPECT_GT(net.backboneCoordination(), 6.0);
   EXPECT_LT(net.backboneCoordination(), 6.15);
   EXPECT_GE(net.isostaticExcess(), 0);  // a jammed backbone has at least the isostatic count
+}
+
+// With the start's phi_J estimate (e.g. from a hard-sphere packing), the state after the first jammed one is
+// the secant through (estimate, 0) and that state; without it the local bisection steps by initialStep.
+TEST(PressureJamming, PhiJEstimateGivesTheFirstSecant) {
+  auto probe = randomSoftStart(128, 0.66, 3);
+  FireMinimiser first(std::move(probe.particles), probe.box, harmonicSettings());
+  const FireResult r0 = first.minimise();
+  ASSERT_TRUE(r0.converged) << r0.stopReason;
+  const double phi1 = first.packingFraction(), p1 = r0.last.reducedPressure;
+  ASSERT_GT(p1, 1e-4);
+  for (const bool hint : {false, true}) {
+    auto start = randomSoftStart(128, 0.66, 3);
+    FireMinimiser m(std::move(start.particles), start.box, harmonicSettings());
+    PressureJammingSettings js;
+    js.targetPressure = 0.9 * p1;
+    js.pressureTolerance = 0.01;
+    js.maxSteps = 2;
+    if (hint) js.jammingEstimate = phi1 - 0.005;
+    std::vector<double> phis;
+    jamToPressure(m, js, [&](const JammingStep& st) { phis.push_back(st.packingFraction); });
+    ASSERT_EQ(phis.size(), 2u);
+    EXPECT_EQ(phis[0], phi1);
+    const double expected = hint ? js.jammingEstimate + 0.005 * 0.9 : phi1 * (1.0 - js.initialStep);
+    EXPECT_NEAR(phis[1], expected, 1e-12) << (hint ? "with" : "without") << " the estimate";
+  }
+  PressureJammingSettings bad;
+  bad.jammingEstimate = 1.5;
+  EXPECT_THROW(bad.validate(), ConfigError);
 }
 
 }  // namespace
