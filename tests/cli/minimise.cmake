@@ -87,3 +87,10 @@ polydem_cli_test(NAME minimise_scene_missing COMMAND minimise no_such_scene.toml
 file(WRITE ${POLYDEM_CLI_WORK}/minimise_scene_self.toml "[minimise]\ncount = 20\noutput = \"minimise_scene_self.toml\"\n")
 polydem_cli_test(NAME minimise_scene_output_is_scene COMMAND minimise minimise_scene_self.toml EXIT 2
                  PASS "--output" FAIL "FIRE" LABELS minimise)
+# A `polydem jam` input whose phi_j_estimate is not a packing fraction: an input error naming the file and the
+# attribute, before any minimisation.
+file(WRITE ${POLYDEM_CLI_WORK}/minimise_bad_estimate.txt
+     "# attribute: generator = \"polydem jam\"\n# attribute: phi_j_estimate = 1.7\n2 10 10 10\n5 5 5 1\n6.5 5 5 1\n")
+polydem_cli_test(NAME minimise_bad_phi_j_estimate COMMAND minimise -i minimise_bad_estimate.txt --target-pressure 1e-4
+                 EXIT 2 PASS "minimise_bad_estimate.txt: attribute phi_j_estimate = '1.7' is not a packing fraction"
+                 FAIL "minimisations" LABELS minimise)
