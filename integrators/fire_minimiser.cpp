@@ -359,12 +359,14 @@ MinimiserReport FireMinimiser::measure() const {
   rep.meanContactForce = all > 0 ? forceSum / static_cast<double>(all) : 0.0;
   rep.pressure = virial / (3.0 * box_.volume());
   rep.reducedPressure = rep.pressure / pressureUnit_;
-  rep.maxForce = std::sqrt(particles_.force().colwise().squaredNorm().maxCoeff());
   const Eigen::VectorXd& im = particles_.inverseMass();
-  double stepSq = 0.0;
+  double forceSq = 0.0, stepSq = 0.0;  // largest |F_i|^2 and largest Jacobi step |F_i|^2 / m_i^2
   for (Index i = 0; i < particles_.count(); ++i) {
-    stepSq = std::max(stepSq, particles_.force().col(i).squaredNorm() * im[i] * im[i]);
+    const double fi = particles_.force().col(i).squaredNorm();
+    forceSq = std::max(forceSq, fi);
+    stepSq = std::max(stepSq, fi * im[i] * im[i]);
   }
+  rep.maxForce = std::sqrt(forceSq);
   rep.stepUlps = std::sqrt(stepSq) / (std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff());
   const double scale = std::max(rep.meanContactForce, settings_.fire.referenceForce);
   rep.residual = scale > 0.0 ? rep.maxForce / scale : 0.0;

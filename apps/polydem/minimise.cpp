@@ -8,9 +8,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "apps/polydem/commands.hpp"
@@ -22,6 +22,7 @@
 #include "core/errors.hpp"
 #include "core/initial_configuration.hpp"
 #include "core/interrupt.hpp"
+#include "core/io/attributes.hpp"
 #include "core/io/contacts.hpp"
 #include "core/io/particle_file.hpp"
 #include "core/io/safe_output.hpp"
@@ -313,17 +314,15 @@ io::ContactData minimisedContacts(const integrators::FireMinimiser& m, const io:
 /// The hard-sphere phi_J estimate of a `polydem jam` input (attribute phi_j_estimate), 0 for any other start.
 /// A value that is not a packing fraction is an error naming the file and the attribute.
 double jammingEstimateOf(const MinimiseOptions& o, const Start& start) {
-  const auto& a = start.data.attributes;
-  const auto gen = a.find("generator");
-  const auto est = a.find("phi_j_estimate");
-  if (o.input.empty() || gen == a.end() || gen->second != "polydem jam" || est == a.end()) return 0.0;
-  char* end = nullptr;
-  const double v = std::strtod(est->second.c_str(), &end);
-  if (end == est->second.c_str() || *end != '\0' || !(v > 0.0 && v < 1.0)) {
-    throw InputError(
-        fmt::format("{}: attribute phi_j_estimate = '{}' is not a packing fraction in (0, 1)", o.input, est->second));
+  const auto gen = start.data.attributes.find("generator");
+  if (o.input.empty() || gen == start.data.attributes.end() || gen->second != "polydem jam") return 0.0;
+  const std::optional<double> v = io::numericAttribute(start.data, "phi_j_estimate", o.input);
+  if (!v) return 0.0;
+  if (!(*v > 0.0 && *v < 1.0)) {
+    throw InputError(fmt::format("{}: attribute phi_j_estimate = '{}' is not a packing fraction in (0, 1)", o.input,
+                                 start.data.attributes.at("phi_j_estimate")));
   }
-  return v;
+  return *v;
 }
 
 void writeOutput(const MinimiseOptions& o, const Start& start, const integrators::FireMinimiser& m, const Outcome& out,
@@ -409,6 +408,8 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     if (o.contacts) io::checkOutputPath(io::contactPathFor(o.output), "--contacts (the contact file)", inputs);
   }
   Start start = makeStart(o, cmd);
+  // The input's hard-sphere phi_J estimate, read (and checked) before any work.
+  const double jammingEstimate = protocol ? jammingEstimateOf(o, start) : 0.0;
   ParticleStore store(start.data.count(), Features{});
   store.position() = start.data.position;
   store.radius() = start.data.radius;
@@ -451,7 +452,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     js.initialStep = o.initialStep;
     js.maxStep = o.maxStep;
     js.maxSteps = o.maxSteps;
-    js.jammingEstimate = jammingEstimateOf(o, start);
+    js.jammingEstimate = jammingEstimate;
     js.validate();
     if (js.jammingEstimate > 0.0) {
       fmt::print("phi_J estimate          {:.10f} (the input's phi_j_estimate from polydem jam: the first secant)\n",
