@@ -27,11 +27,25 @@ double resolveSkin(double skin, const ParticleStore& particles) {
   return 0.2 * particles.radius().minCoeff();
 }
 
+/// The two largest squared displacements since the list's build, for the rebuild rule (listStale()).
+struct LargestTwo {
+  double first = 0.0, second = 0.0;
+  void add(double dsq) {
+    if (dsq > second) {
+      second = std::min(dsq, first);
+      first = std::max(dsq, first);
+    }
+  }
+  double drift() const { return std::sqrt(first) + std::sqrt(second); }
+};
+
 void requirePositive(double value, const char* key) {
   if (!(value > 0.0 && std::isfinite(value))) throw ConfigError(fmt::format("{} must be > 0, got {}", key, value));
 }
 
 }  // namespace
+
+const char* methodName(MinimiserMethod method) { return method == MinimiserMethod::ConjugateGradient ? "cg" : "fire"; }
 
 void FireSettings::validate() const {
   requirePositive(forceTolerance, "minimise.force_tolerance");
@@ -157,6 +171,25 @@ contact::ForceContext FireMinimiser::context() const {
   c.crossScratch = self.crossScratch_.data();
   c.crossTouching = self.crossTouching_.data();
   return c;
+}
+
+void FireMinimiser::moveAlong(const std::vector<double>& d, double a) {
+  double* x = particles_.position().data();
+  const double* ref = verlet_.reference().data();
+  LargestTwo largest;
+  for (Index i = 0; i < particles_.count(); ++i) {
+    double dsq = 0.0;
+    for (int c = 0; c < 3; ++c) {
+      const Index k = 3 * i + c;
+      x[k] += a * d[static_cast<std::size_t>(k)];
+      const double dx = x[k] - ref[k];
+      dsq += dx * dx;
+    }
+    largest.add(dsq);
+  }
+  pairDrift_ = largest.drift();
+  if (listStale()) rebuild();
+  computeForces();
 }
 
 void FireMinimiser::computeForces() {
@@ -435,6 +468,106 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     return res;
   };
 
+  // The stopping rule after a measurement at force evaluation `it` (both methods; all are converged stops):
+  // the reason to stop, or nullptr.
+  auto verdict = [&](const MinimiserReport& now, double fmax, std::int64_t it) -> const char* {
+    if (now.contacts + now.wallContacts == 0) return "no contacts";
+    if (now.maxOverlap <= overlapFloor) return "overlaps at round-off";
+    knownScale = std::max(now.meanContactForce, fs.referenceForce);
+    if (fmax <= fs.forceTolerance * knownScale) return "converged";
+    // The round-off floor: the remaining forces ask every particle to move by less than the resolution of
+    // its coordinates, and the residual has not halved for kStallSteps. A tolerance below that floor cannot
+    // be met (seen: 10^4 equal spheres at p/k 1e-6, residual hovering at 3-5e-9 against 1e-9 for 1.3 million
+    // steps); stop and say so rather than spend the iteration budget.
+    if (now.residual < 0.5 * bestResidual) {
+      bestResidual = now.residual;
+      bestAt = it;
+    }
+    if (now.stepUlps <= 1.0 && it - bestAt >= kStallSteps) return "round-off floor";
+    return nullptr;
+  };
+  auto report = [&](std::int64_t it, double step) {
+    MinimiserReport now = timedMeasure();
+    now.iteration = it;
+    now.dt = step;
+    knownScale = std::max(now.meanContactForce, fs.referenceForce);
+    progress(now);
+  };
+  if (settings_.method == MinimiserMethod::ConjugateGradient) {
+    // Preconditioned Polak-Ribiere+ conjugate gradients (the header): s = M^-1 F, d = s + beta d, and a line
+    // search of one trial move and one secant move. `dt` holds the line step, in units of M^-1 F.
+    const std::size_t m = 3 * static_cast<std::size_t>(n);
+    cgDirection_.resize(m);
+    cgPrevious_.resize(m);
+    std::vector<double>& d = cgDirection_;
+    std::vector<double>& previous = cgPrevious_;  // M^-1 F at the last iteration
+    auto alongDirection = [&] {
+      double g = 0.0;
+      for (std::size_t k = 0; k < m; ++k) g += f[k] * d[k];
+      return g;
+    };
+    double sOld = 0.0;  // F.M^-1 F at the last iteration
+    for (Index i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) {
+        const auto k = static_cast<std::size_t>(3 * i + c);
+        previous[k] = im[i] * f[k];
+        d[k] = previous[k];
+        sOld += f[k] * previous[k];
+      }
+    }
+    dt = 0.5;  // the line minimum of a mode of preconditioned stiffness 2 (about the stiffest) lies at 0.5
+    std::int64_t evaluations = 0;
+    for (std::int64_t iteration = 0;; ++iteration) {
+      double fmaxSq = 0.0;
+      for (Index i = 0; i < n; ++i) {
+        const double* fi = f + 3 * i;
+        fmaxSq = std::max(fmaxSq, fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+      }
+      if (!std::isfinite(fmaxSq)) {
+        throw SimulationError(fmt::format("minimiser: non-finite forces at CG iteration {}", iteration));
+      }
+      const double fmax = std::sqrt(fmaxSq);
+      // Every 128 iterations = 256 force evaluations, as FIRE measures.
+      if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || iteration % (kMeasureEvery / 2) == 0) {
+        const MinimiserReport now = timedMeasure();
+        if (const char* why = verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
+      }
+      if (evaluations >= fs.maxIterations) return finish(false, "iteration budget", evaluations, nullptr);
+      if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", evaluations, nullptr);
+      if (progress && fs.progressInterval > 0 && iteration % ((fs.progressInterval + 1) / 2) == 0) {
+        report(evaluations, dt);
+      }
+      double g0 = alongDirection();
+      if (!(g0 > 0.0)) {  // not a descent direction: restart along M^-1 F
+        ++res.uphillSteps;
+        g0 = sOld;
+        std::copy(previous.begin(), previous.end(), d.begin());
+      }
+      const double trial = dt;
+      moveAlong(d, trial);
+      const double g1 = alongDirection();
+      // The secant root of g(a) = F(x + a d).d; where g did not fall (no positive curvature along d), go on
+      // downhill by the cap.
+      const double best = g0 > g1 ? std::min(trial * g0 / (g0 - g1), 4.0 * trial) : 4.0 * trial;
+      moveAlong(d, best - trial);
+      evaluations += 2;
+      dt = std::max(best, 1e-4);        // the next trial: the last line step (kept off zero)
+      double sNew = 0.0, change = 0.0;  // F.M^-1 F and F.(M^-1 F - s_old)
+      for (Index i = 0; i < n; ++i) {
+        for (int c = 0; c < 3; ++c) {
+          const auto k = static_cast<std::size_t>(3 * i + c);
+          const double sk = im[i] * f[k];
+          sNew += f[k] * sk;
+          change += f[k] * (sk - previous[k]);
+          previous[k] = sk;
+        }
+      }
+      const double beta = sOld > 0.0 ? std::max(0.0, change / sOld) : 0.0;
+      sOld = sNew;
+      for (std::size_t k = 0; k < m; ++k) d[k] = previous[k] + beta * d[k];
+    }
+  }
+
   for (std::int64_t it = 0;; ++it) {
     // One pass: power P = F.v, |v|^2, |F|^2, and the terms of the kicked |v|^2, largest |F_i|^2.
     double power = 0.0, vv = 0.0, ff = 0.0, fvm = 0.0, ffm = 0.0, fmaxSq = 0.0;
@@ -458,29 +591,11 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     const double fmax = std::sqrt(fmaxSq);
     if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
       const MinimiserReport now = timedMeasure();
-      if (now.contacts + now.wallContacts == 0) return finish(true, "no contacts", it, &now);
-      if (now.maxOverlap <= overlapFloor) return finish(true, "overlaps at round-off", it, &now);
-      knownScale = std::max(now.meanContactForce, fs.referenceForce);
-      if (fmax <= fs.forceTolerance * knownScale) return finish(true, "converged", it, &now);
-      // The round-off floor: the remaining forces ask every particle to move by less than the resolution of
-      // its coordinates, and the residual has not halved for kStallSteps. A tolerance below that floor cannot
-      // be met (seen: 10^4 equal spheres at p/k 1e-6, residual hovering at 3-5e-9 against 1e-9 for 1.3 million
-      // steps); stop and say so rather than spend the iteration budget.
-      if (now.residual < 0.5 * bestResidual) {
-        bestResidual = now.residual;
-        bestAt = it;
-      }
-      if (now.stepUlps <= 1.0 && it - bestAt >= kStallSteps) return finish(true, "round-off floor", it, &now);
+      if (const char* why = verdict(now, fmax, it)) return finish(true, why, it, &now);
     }
     if (it >= fs.maxIterations) return finish(false, "iteration budget", it, nullptr);
     if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", it, nullptr);
-    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) {
-      MinimiserReport now = timedMeasure();
-      now.iteration = it;
-      now.dt = dt;
-      knownScale = std::max(now.meanContactForce, fs.referenceForce);
-      progress(now);
-    }
+    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) report(it, dt);
 
     if (power > 0.0) {
       ++downhill;
@@ -514,7 +629,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
     const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
     const double* ref = verlet_.reference().data();
-    double maxSq = 0.0, secondSq = 0.0;  // the two largest squared displacements since the build
+    LargestTwo largest;  // squared displacements since the build
     for (Index i = 0; i < n; ++i) {
       const double h = dt * im[i];
       double dsq = 0.0;
@@ -526,12 +641,9 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
         const double dx = x[a] - ref[a];
         dsq += dx * dx;
       }
-      if (dsq > secondSq) {
-        secondSq = std::min(dsq, maxSq);
-        maxSq = std::max(dsq, maxSq);
-      }
+      largest.add(dsq);
     }
-    pairDrift_ = std::sqrt(maxSq) + std::sqrt(secondSq);
+    pairDrift_ = largest.drift();
     if (listStale()) rebuild();
     computeForces();
   }
@@ -541,6 +653,7 @@ std::size_t FireMinimiser::memoryBytes() const {
   const auto n = static_cast<std::size_t>(particles_.count());
   std::size_t bytes = n * (9 + 2) * sizeof(double) + n * sizeof(Index);
   bytes += crossScratch_.capacity() * sizeof(double) + crossTouching_.capacity();
+  bytes += (cgDirection_.capacity() + cgPrevious_.capacity()) * sizeof(double);
   bytes += verlet_.memoryBytes();
   return bytes;
 }

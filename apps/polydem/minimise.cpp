@@ -49,7 +49,8 @@ struct MinimiseOptions {
   std::string law = "linear";
   std::string scaling = "radius";
   double stiffness = 1.0;
-  // FIRE
+  // the minimiser
+  std::string method = "fire";
   double forceTolerance = 1e-9;
   double maxIterations = 1e7;
   double dt = 0.1;
@@ -110,7 +111,13 @@ void addOptions(CLI::App* cmd, MinimiseOptions* o) {
                   "mean contact force at the target)")
       ->check(finiteIn(1e-15, 0.1))
       ->capture_default_str();
-  cmd->add_option("--max-iterations", o->maxIterations, "FIRE steps per minimisation (exit 4 when spent)")
+  cmd->add_option("--method", o->method,
+                  "descent on the forces: fire (FIRE 2.0) or cg (preconditioned Polak-Ribiere conjugate gradients "
+                  "with a secant line search; same forces, stopping rule and results to the tolerance)")
+      ->check(CLI::IsMember({"fire", "cg"}))
+      ->capture_default_str();
+  cmd->add_option("--max-iterations", o->maxIterations,
+                  "force evaluations per minimisation: FIRE steps, or 2 per CG iteration (exit 4 when spent)")
       ->check(finiteIn(1.0, 1e12))
       ->capture_default_str();
   cmd->add_option("--dt", o->dt, "initial FIRE step in preconditioned units (omega ~ 1); dt_max = dt-max-factor x dt")
@@ -224,6 +231,7 @@ integrators::MinimiserSettings settingsFrom(const MinimiseOptions& o) {
   s.skin = o.skin;
   s.outerSkin = o.outerSkin;
   s.threads = o.threads;
+  s.method = o.method == "cg" ? integrators::MinimiserMethod::ConjugateGradient : integrators::MinimiserMethod::Fire;
   s.fire.forceTolerance = o.forceTolerance;
   s.fire.maxIterations = static_cast<std::int64_t>(o.maxIterations);
   s.fire.dt = o.dt;
@@ -346,6 +354,7 @@ void writeOutput(const MinimiseOptions& o, const Start& start, const integrators
   d.attributes["residual_force"] = fmt::format("{:.6g}", out.last.residual);
   d.attributes["fire_iterations"] = std::to_string(out.iterations);
   d.attributes["fire_stop_reason"] = out.fireStop;
+  d.attributes["minimiser_method"] = o.method;
   if (o.targetPressure > 0.0 && out.ok)
     d.attributes["phi_j_estimate"] = fmt::format("{:.17g}", out.last.packingFraction);
   // `polydem analyze` treats the file as a hard-sphere packing whose contact gap follows from its reduced
@@ -434,14 +443,21 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
   }
   Stopwatch clock;
   double lastPrint = 0.0;
+  // FIRE counts steps; CG counts force evaluations (2 per iteration), the same unit of cost.
+  const bool cg = o.method == "cg";
+  const char* name = cg ? "CG" : "FIRE";
+  const char* unit = cg ? "force evaluations" : "steps";
+  if (cg) {
+    fmt::print("minimiser               cg (preconditioned conjugate gradients; counts are force evaluations)\n");
+  }
   auto fireProgress = [&](const integrators::MinimiserReport& r) {
     if (clock.seconds() - lastPrint < o.progressSeconds) return;
     lastPrint = clock.seconds();
     fmt::print(
-        "  FIRE {:>9}  energy {:.6g}  residual {:.3g} (step {:.3g} ulp)  contacts {}  p/k {:.4g}  dt {:.3g}  {:.1f} "
+        "  {:<4} {:>9}  energy {:.6g}  residual {:.3g} (step {:.3g} ulp)  contacts {}  p/k {:.4g}  {} {:.3g}  {:.1f} "
         "s\n",
-        r.iteration, r.energy, r.residual, r.stepUlps, r.contacts + r.wallContacts, r.reducedPressure, r.dt,
-        clock.seconds());
+        name, r.iteration, r.energy, r.residual, r.stepUlps, r.contacts + r.wallContacts, r.reducedPressure,
+        cg ? "line step" : "dt", r.dt, clock.seconds());
   };
 
   Outcome out;
@@ -460,8 +476,8 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     }
     m.fireSettings().referenceForce = m.contactForceAtPressure(o.targetPressure);
     auto onStep = [&](const integrators::JammingStep& s) {
-      fmt::print("step {:>4} {:<10} phi {:.12f}  p/k {:.6g}  FIRE {} ({}, residual {:.3g})  contacts {}  {:.1f} s\n",
-                 s.step, s.action, s.packingFraction, s.reducedPressure, s.fire.iterations, s.fire.stopReason,
+      fmt::print("step {:>4} {:<10} phi {:.12f}  p/k {:.6g}  {} {} ({}, residual {:.3g})  contacts {}  {:.1f} s\n",
+                 s.step, s.action, s.packingFraction, s.reducedPressure, name, s.fire.iterations, s.fire.stopReason,
                  s.fire.last.residual, s.fire.last.contacts + s.fire.last.wallContacts, clock.seconds());
     };
     const integrators::PressureJammingResult r = integrators::jamToPressure(m, js, onStep, fireProgress, true);
@@ -471,7 +487,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     out.iterations = r.fireIterations;
     out.last = r.lastFire.last;
     out.fireStop = r.lastFire.stopReason;
-    fmt::print("minimisations           {} ({} FIRE steps)\n", r.steps, r.fireIterations);
+    fmt::print("minimisations           {} ({} {} {})\n", r.steps, r.fireIterations, name, unit);
   } else {
     const integrators::FireResult r = m.minimise(fireProgress, true);
     out.ok = r.converged;
@@ -482,22 +498,24 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     out.iterations = r.iterations;
     out.last = r.last;
     out.fireStop = r.stopReason;
-    fmt::print("FIRE steps              {} ({} uphill, {} neighbour-list builds, {} of them through the broad phase)\n",
-               r.iterations, r.uphillSteps, r.rebuilds, r.broadPhaseBuilds);
+    fmt::print("{:<23} {} ({} {}, {} neighbour-list builds, {} of them through the broad phase)\n",
+               fmt::format("{} {}", name, cg ? "evaluations" : "steps"), r.iterations, r.uphillSteps,
+               cg ? "restarts" : "uphill", r.rebuilds, r.broadPhaseBuilds);
     const double perStep = r.iterations > 0 ? 1e6 / (static_cast<double>(r.iterations) * m.particles().count()) : 0.0;
     fmt::print(
-        "FIRE time               {:.4f} us/particle/step ({:.3f} s): broad phase {:.4f}, force {:.4f}, update {:.4f}, "
+        "{:<23} {:.4f} us/particle/{} ({:.3f} s): broad phase {:.4f}, force {:.4f}, update {:.4f}, "
         "measurements {:.4f}\n",
-        r.seconds.total() * perStep, r.seconds.total(), r.seconds.broadPhase * perStep, r.seconds.force * perStep,
-        r.seconds.update * perStep, r.seconds.measure * perStep);
+        fmt::format("{} time", name), r.seconds.total() * perStep, cg ? "evaluation" : "step", r.seconds.total(),
+        r.seconds.broadPhase * perStep, r.seconds.force * perStep, r.seconds.update * perStep,
+        r.seconds.measure * perStep);
   }
   printState("final", out.last);
   if (out.fireStop == "round-off floor") {
     fmt::print(
-        "note                    FIRE stopped at the round-off floor: residual {:.3g} against the tolerance {:.3g}, "
+        "note                    {} stopped at the round-off floor: residual {:.3g} against the tolerance {:.3g}, "
         "which this state cannot reach (the forces ask no sphere to move by a representable amount, step {:.3g} "
         "ulp of the coordinates, and the residual stopped falling)\n",
-        out.last.residual, o.forceTolerance, out.last.stepUlps);
+        name, out.last.residual, o.forceTolerance, out.last.stepUlps);
   }
   fmt::print("time                    {:.2f} s, {} force evaluations, memory {:.1f} MB\n", clock.seconds(),
              m.forceEvaluations(), static_cast<double>(m.memoryBytes()) / 1e6);

@@ -22,6 +22,11 @@ polydem_cli_test(NAME minimise_budget COMMAND minimise -n 200 --phi0 0.75 --max-
                  EXIT 4 PASS "not converged: residual [0-9.e+-]+ after 20 iterations" LABELS minimise)
 polydem_cli_test(NAME minimise_jam_soft COMMAND minimise -n 128 --phi0 0.6 --target-pressure 1e-4 --progress 0
                  EXIT 0 PASS "phi_J +0\\.6[0-9]+ " LABELS minimise)
+polydem_cli_test(NAME minimise_jam_soft_cg COMMAND minimise -n 128 --phi0 0.6 --target-pressure 1e-4 --progress 0
+                 --method cg EXIT 0 PASS "minimisations +[0-9]+ .[0-9]+ CG force evaluations." FAIL "FIRE"
+                 LABELS minimise)
+polydem_cli_test(NAME minimise_method_bad COMMAND minimise -n 20 --method lbfgs EXIT 2 PASS "--method"
+                 FAIL "FIRE steps" LABELS minimise)
 polydem_cli_test(NAME minimise_jam_soft_budget COMMAND minimise -n 128 --phi0 0.6 --target-pressure 1e-6 --max-steps 2
                  EXIT 4 PASS "step budget: 2 minimisations" LABELS minimise)
 # Bad options: exit 2, the option named, nothing computed.

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <string>
 
 #include "integrators/fire_minimiser.hpp"
 #include "tests/integrators/minimise_scenes.hpp"
@@ -38,19 +39,23 @@ long allocationsOf(FireMinimiser& m, std::int64_t steps) {
 }
 
 TEST(FireMinimiser, DoesNotAllocatePerStep) {
-  // Brute force keeps no index (checks the minimiser itself); linked-cell also a backend's build.
-  for (const char* backend : {"brute", "linked-cell"}) {
-    SCOPED_TRACE(backend);
-    auto start = test::randomSoftStart(300, 0.66, 9);
-    MinimiserSettings s = test::harmonicSettings(backend);
-    s.skin = 0.02;  // frequent rebuilds
-    s.fire.forceTolerance = 1e-15;
-    FireMinimiser m(std::move(start.particles), start.box, s);
-    m.fireSettings().maxIterations = 3000;
-    m.minimise();  // buffers reach their working size
-    const long shortCall = allocationsOf(m, 200);
-    const long longCall = allocationsOf(m, 2000);
-    EXPECT_EQ(longCall, shortCall) << "allocations grow with the number of FIRE steps";
+  // Brute force keeps no index (checks the minimiser itself); linked-cell also a backend's build. Both methods:
+  // FIRE, and conjugate gradients (its two direction buffers are sized in the first call).
+  for (const auto method : {MinimiserMethod::Fire, MinimiserMethod::ConjugateGradient}) {
+    for (const char* backend : {"brute", "linked-cell"}) {
+      SCOPED_TRACE(std::string(backend) + " " + methodName(method));
+      auto start = test::randomSoftStart(300, 0.66, 9);
+      MinimiserSettings s = test::harmonicSettings(backend);
+      s.method = method;
+      s.skin = 0.02;  // frequent rebuilds
+      s.fire.forceTolerance = 1e-15;
+      FireMinimiser m(std::move(start.particles), start.box, s);
+      m.fireSettings().maxIterations = 3000;
+      m.minimise();  // buffers reach their working size
+      const long shortCall = allocationsOf(m, 200);
+      const long longCall = allocationsOf(m, 2000);
+      EXPECT_EQ(longCall, shortCall) << "allocations grow with the number of steps";
+    }
   }
 }
 
