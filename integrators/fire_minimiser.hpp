@@ -36,8 +36,8 @@
 // eps L / delta, which grows with N^(1/3) and 1/p: ~1e-8 for N = 1000 at p/k = 1e-7, and 3-5e-9 measured for
 // N = 10^4 equal spheres at p/k = 1e-6 (L = 40 d), above the default 1e-9. So a fourth stop: "round-off
 // floor", when the largest Jacobi step max_i |F_i| / m_i is below eps max(L) (MinimiserReport::stepUlps <= 1:
-// the forces ask no particle to move by a representable amount) and the residual has not halved for 16384
-// steps; converged = true, and the residual reached is reported beside the tolerance that was asked for. Not
+// the forces ask no particle to move by a representable amount) and the residual has not halved for 4 x the
+// steps its last halving took (at least 2048, at most 16384); converged = true, and the residual reached is reported beside the tolerance that was asked for. Not
 // converged after maxIterations (or after maxUphill uphill steps in a row): FireResult::converged = false with
 // the residual reached.
 //
