@@ -37,9 +37,9 @@
 // N = 10^4 equal spheres at p/k = 1e-6 (L = 40 d), above the default 1e-9. So a fourth stop: "round-off
 // floor", when the largest Jacobi step max_i |F_i| / m_i is below eps max(L) (MinimiserReport::stepUlps <= 1:
 // the forces ask no particle to move by a representable amount) and the residual has not halved for 4 x the
-// steps its last halving took (at least 2048, at most 16384); converged = true, and the residual reached is reported beside the tolerance that was asked for. Not
-// converged after maxIterations (or after maxUphill uphill steps in a row): FireResult::converged = false with
-// the residual reached.
+// steps its last halving took (at least 2048, at most 16384); converged = true, and the residual reached is reported
+// beside the tolerance that was asked for. Not converged after maxIterations (or after maxUphill uphill steps in a
+// row): FireResult::converged = false with the residual reached.
 //
 // Conjugate gradients (MinimiserSettings::method = ConjugateGradient, `--method cg`): the same forces, list,
 // masses (as the preconditioner M^-1) and stopping rule, with Polak-Ribiere+ preconditioned conjugate
