@@ -548,12 +548,21 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
         g0 = sOld;
         std::copy(previous.begin(), previous.end(), d.begin());
       }
-      const double trial = dt;
+      // No line move carries a sphere further than one skin (a guard: near jamming the moves are ~1e-6 of it;
+      // without it, a direction without positive curvature would grow the step 4x per iteration unbounded).
+      double dmaxSq = 0.0;
+      for (Index i = 0; i < n; ++i) {
+        const double* di = d.data() + 3 * i;
+        dmaxSq = std::max(dmaxSq, di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
+      }
+      const double reach = dmaxSq > 0.0 ? verlet_.skin() / std::sqrt(dmaxSq) : 4.0 * dt;
+      const double trial = std::min(dt, reach);
       moveAlong(d, trial);
       const double g1 = alongDirection();
       // The secant root of g(a) = F(x + a d).d; where g did not fall (no positive curvature along d), go on
       // downhill by the cap.
-      const double best = g0 > g1 ? std::min(trial * g0 / (g0 - g1), 4.0 * trial) : 4.0 * trial;
+      const double secant = g0 > g1 ? trial * g0 / (g0 - g1) : 4.0 * trial;
+      const double best = std::min({secant, 4.0 * trial, reach});
       moveAlong(d, best - trial);
       evaluations += 2;
       dt = std::max(best, 1e-4);        // the next trial: the last line step (kept off zero)
