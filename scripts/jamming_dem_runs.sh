@@ -2,7 +2,7 @@
 # jamming_dem_runs.sh: the target runs of issue 19, to be launched on a quiet machine (hours; not in CI).
 #   big    10^6 frictionless spheres, f(r) ~ r^-3 (uniform-volume), size ratio 100, jammed at p/k = 1e-6
 #   scan   N = 10^5, size ratio 1, 3, 10, 30, 100 (same exponent), jammed at p/k = 1e-6
-#   starts N = 10^4, size ratio 100: the event-driven start (`polydem jam`) against independent random centres,
+#   starts N = 10^4, size ratio 30 (at 10^4 spheres a periodic box is too short for size ratio 100): the event-driven start (`polydem jam`) against independent random centres,
 #          to say which reaches the jammed state faster for wide distributions
 # Every run logs its command, wall time and peak memory (/usr/bin/time -v) next to its output.
 #
@@ -88,10 +88,10 @@ PY
 }
 
 starts() {
-  run starts_edmd jam -n 10000 --dist uniform-volume --omega 100 --schedule 1e-2:1e2,1e-3 --target-pressure 1e3 \
+  run starts_edmd jam -n 10000 --dist uniform-volume --omega 30 --schedule 1e-2:1e2,1e-3 --target-pressure 1e3 \
       -o "$out/starts_hs.h5"
   run starts_from_edmd minimise -i "$out/starts_hs.h5" "${common[@]}" --initial-step 1e-4
-  run starts_random minimise -n 10000 --dist uniform-volume --omega 100 --placement random --phi0 0.7 "${common[@]}"
+  run starts_random minimise -n 10000 --dist uniform-volume --omega 30 --placement random --phi0 0.8 "${common[@]}"
 }
 
 case "$what" in
