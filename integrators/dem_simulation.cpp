@@ -93,8 +93,10 @@ struct DriftArrays {
 /// the drift x += dt v that follows it, with kPredict the predicted rate(t + dt) = rate + dt/2 driver *
 /// inverse for the dashpots. Returns the largest squared displacement since the last build with kDrift
 /// (else 0). One pass over the particles, so the opening kick, the drift and the displacement check
-/// read each particle once.
-template <bool kDrift, bool kPredict>
+/// read each particle once. With kClose the pass first applies the previous step's closing half kick (the
+/// same expression, rate += dt/2 driver * inverse, with the same driver): two steps' kicks in one pass,
+/// bit for bit what the two passes give.
+template <bool kDrift, bool kPredict, bool kClose = false>
 double halfKick(Index n, int threads, double dt, const KickArrays& k, const DriftArrays& d = {}) {
   const double half = 0.5 * dt;
   double* v = k.rate;
@@ -108,6 +110,7 @@ double halfKick(Index n, int threads, double dt, const KickArrays& k, const Drif
     double dsq = 0.0;
     for (int c = 0; c < 3; ++c) {
       const Index a = 3 * i + c;
+      if constexpr (kClose) v[a] += h * f[a];
       v[a] += h * f[a];
       if constexpr (kDrift) x[a] += dt * v[a];
       if constexpr (kPredict) vp[a] = v[a] + h * f[a];
@@ -550,10 +553,12 @@ void DemSimulation::rebuild() {
 }
 
 std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
+  const std::int64_t checkInterval = settings_.stability.checkInterval;
+  bool closePending = false;  // the previous step's closing half kick is left to this step's opening pass
   for (std::int64_t s = 0; s < steps; ++s) {
     const double limit = std::max(0.0, 0.5 * verlet_.skin() - growthSinceBuild_);
     const Clock::time_point t0 = Clock::now();
-    const double maxSq = openingKickAndDrift();
+    const double maxSq = openingKickAndDrift(closePending);
     const Clock::time_point t1 = Clock::now();
     // Re-sort at fixed steps when the order has decayed (a decision independent of the skin), else rebuild
     // when some particle moved skin / 2.
@@ -567,7 +572,16 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     const Clock::time_point t2 = Clock::now();
     computeForces();
     const Clock::time_point t3 = Clock::now();
-    closingKick();
+    // The closing half kick joins the next step's opening pass when that step follows at once: not the call's
+    // last step, no stability check after this one (it reads the full-step velocities), no stop asked for (an
+    // interrupt arriving after this decision stops the run one step later, after an unfused step).
+    closePending = s + 1 < steps && !(checkInterval > 0 && (step_ + 1) % checkInterval == 0) &&
+                   !(stopOnInterrupt && interruptRequested());
+    if (closePending) {
+      ++times_.joinedKicks;
+    } else {
+      closingKick();
+    }
     const Clock::time_point t4 = Clock::now();
     times_.integration += seconds(t0, t1) + seconds(t3, t4);
     times_.broadPhase += seconds(t1, t2);
@@ -577,23 +591,35 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
       checkStability();
       times_.check += seconds(t4, Clock::now());
     }
-    if (stopOnInterrupt && interruptRequested()) return s + 1;
+    if (stopOnInterrupt && !closePending && interruptRequested()) return s + 1;
   }
   return steps;
 }
 
-double DemSimulation::openingKickAndDrift() {
+double DemSimulation::openingKickAndDrift(bool close) {
   const Index n = particles_.count();
   const int threads = settings_.threads;
   KickArrays translation{particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data(),
                          velocityPredicted_.data()};
   const DriftArrays drift{particles_.position().data(), verlet_.reference().data()};
-  const double maxSq = predict_ ? halfKick<true, true>(n, threads, dt_, translation, drift)
-                                : halfKick<true, false>(n, threads, dt_, translation, drift);
+  double maxSq = 0.0;
+  if (close) {
+    maxSq = predict_ ? halfKick<true, true, true>(n, threads, dt_, translation, drift)
+                     : halfKick<true, false, true>(n, threads, dt_, translation, drift);
+  } else {
+    maxSq = predict_ ? halfKick<true, true>(n, threads, dt_, translation, drift)
+                     : halfKick<true, false>(n, threads, dt_, translation, drift);
+  }
   if (kernel_.rotation) {
     const KickArrays rotation{particles_.angularVelocity().data(), particles_.torque().data(),
                               particles_.inverseInertia().data(), angularVelocityPredicted_.data()};
-    if (predict_) {
+    if (close) {
+      if (predict_) {
+        halfKick<false, true, true>(n, threads, dt_, rotation);
+      } else {
+        halfKick<false, false, true>(n, threads, dt_, rotation);
+      }
+    } else if (predict_) {
       halfKick<false, true>(n, threads, dt_, rotation);
     } else {
       halfKick<false, false>(n, threads, dt_, rotation);

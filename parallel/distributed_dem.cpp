@@ -552,7 +552,7 @@ namespace {
 // The arithmetic of dem_simulation.cpp's halfKick<kDrift, kPredict>, particle by particle over the owned
 // slots (ascending, so the arrays stream); the flags are template parameters so the inner loop has no
 // branch. Returns the largest squared displacement from the reference positions (kDrift) or 0.
-template <bool kDrift, bool kPredict>
+template <bool kDrift, bool kPredict, bool kClose = false>
 double kickOwned(const std::vector<Index>& owned, double dt, double* __restrict v, const double* __restrict f,
                  const double* __restrict inverse, double* __restrict predicted, double* __restrict x,
                  const double* __restrict ref) {
@@ -563,6 +563,7 @@ double kickOwned(const std::vector<Index>& owned, double dt, double* __restrict 
     double dsq = 0.0;
     for (int c = 0; c < 3; ++c) {
       const Index a = 3 * i + c;
+      if constexpr (kClose) v[a] += h * f[a];  // the previous step's closing half kick (DistributedDem::advance)
       v[a] += h * f[a];
       if constexpr (kDrift) x[a] += dt * v[a];
       if constexpr (kPredict) predicted[a] = v[a] + h * f[a];
@@ -578,16 +579,20 @@ double kickOwned(const std::vector<Index>& owned, double dt, double* __restrict 
 
 }  // namespace
 
-double DistributedDem::openingKickAndDrift() {
-  const double maxSq = predict_ ? kickOwned<true, true>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(),
-                                                        vp_.data(), x_.data(), ref_.data())
-                                : kickOwned<true, false>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(), nullptr,
-                                                         x_.data(), ref_.data());
+double DistributedDem::openingKickAndDrift(bool close) { return close ? openingPass<true>() : openingPass<false>(); }
+
+template <bool kClose>
+double DistributedDem::openingPass() {
+  const double maxSq = predict_ ? kickOwned<true, true, kClose>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(),
+                                                                vp_.data(), x_.data(), ref_.data())
+                                : kickOwned<true, false, kClose>(ownedSlots_, dt_, v_.data(), f_.data(), invm_.data(),
+                                                                 nullptr, x_.data(), ref_.data());
   if (kernel_.rotation) {
     if (predict_) {
-      kickOwned<false, true>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), wp_.data(), nullptr, nullptr);
+      kickOwned<false, true, kClose>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), wp_.data(), nullptr,
+                                     nullptr);
     } else {
-      kickOwned<false, false>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), nullptr, nullptr, nullptr);
+      kickOwned<false, false, kClose>(ownedSlots_, dt_, w_.data(), tq_.data(), invI_.data(), nullptr, nullptr, nullptr);
     }
   }
   return maxSq;
@@ -937,10 +942,14 @@ void DistributedDem::computeForces() {
 
 std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
   const double start = MPI_Wtime();
+  // As DemSimulation::advance: a step's closing half kick joins the next step's opening pass when that step
+  // follows at once. The decision uses only what every rank shares (the step, the reduced interrupt flag).
+  const std::int64_t checkInterval = settings_.stability.checkInterval;
+  bool closePending = false;
   for (std::int64_t s = 0; s < steps; ++s) {
     const double limit = std::max(0.0, 0.5 * skin_ - growth_);
     // One reduction per step: the largest displacement (the rebuild decision, exact) and the interrupt flag.
-    double reduced[2] = {openingKickAndDrift(), interruptRequested() ? 1.0 : 0.0};
+    double reduced[2] = {openingKickAndDrift(closePending), interruptRequested() ? 1.0 : 0.0};
     {
       CommTimer timer(stats_.commSeconds);
       mpiCheck(MPI_Allreduce(MPI_IN_PLACE, reduced, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
@@ -952,7 +961,9 @@ std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
       exchangeGhosts();
     }
     computeForces();
-    closingKick();
+    closePending =
+        s + 1 < steps && !(checkInterval > 0 && (step_ + 1) % checkInterval == 0) && !(stopOnInterrupt && interrupted_);
+    if (!closePending) closingKick();
     ++step_;
     if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) check();
     if (stopOnInterrupt && interrupted_) {

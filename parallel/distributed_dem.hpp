@@ -109,7 +109,10 @@ class DistributedDem {
   void exchangeReach(const std::vector<double>& centres, const std::vector<double>& radii);
   double reachAt(int q, const double* x) const;
   int reachCell(const double* x) const;
-  double openingKickAndDrift();
+  /// `close`: apply the previous step's closing half kick in the same pass first (see advance()).
+  double openingKickAndDrift(bool close);
+  template <bool kClose>
+  double openingPass();
   void closingKick();
   void exchangeGhosts();
   void rebuild();

@@ -243,6 +243,72 @@ TEST(SameTrajectory, ThreadsNeedAnOpenMPBuild) {
 }
 #endif
 
+// A step's closing half kick applied in the next step's opening pass runs the separate passes' operations in
+// their order, so a run of single-step calls (never joined: each call's last step is not) gives the same bits as
+// one call (joined on every step but the check steps and the last): frictionless with the predicted and the
+// half-step dashpot velocity, frictional with rotation and springs, viscous damping, walls with gravity, on 1, 2
+// and 3 threads, across rebuilds.
+TEST(JoinedKicks, OnePassKicksEqualTheSeparatePasses) {
+  struct Case {
+    const char* name;
+    double mu;
+    double viscous;
+    DashpotVelocity dashpot;
+  };
+  const Case cases[] = {{"frictionless, predicted", 0.0, 0.0, DashpotVelocity::Predicted},
+                        {"frictionless, half step", 0.0, 0.0, DashpotVelocity::HalfStep},
+                        {"friction and rotation", 0.4, 0.0, DashpotVelocity::Predicted},
+                        {"viscous damping", 0.3, 0.5, DashpotVelocity::Predicted}};
+  std::vector<int> threadCounts{1};
+  if (POLYDEM_WITH_OPENMP) threadCounts = {1, 2, 3};
+  for (const Case& c : cases) {
+    for (int threads : threadCounts) {
+      SCOPED_TRACE(::testing::Message() << c.name << ", " << threads << " threads");
+      auto make = [&] {
+        Box box;
+        ParticleStore p = test::latticeGas(alternating(1000, 1.0, 1.7), 0.45, box, 9, c.mu > 0.0);
+        DemSettings settings;
+        settings.contact = linear(0.7, c.mu);
+        settings.viscousDamping = c.viscous;
+        settings.dashpotVelocity = c.dashpot;
+        settings.skin = 0.05;
+        settings.threads = threads;
+        settings.stability.checkInterval = 37;
+        assignImpactVelocities(ContactModel(settings.contact), p, 0.05, 6);
+        return DemSimulation(std::move(p), box, settings);
+      };
+      DemSimulation joined = make();
+      DemSimulation separate = make();
+      joined.advance(300);
+      for (int s = 0; s < 300; ++s) separate.advance(1);
+      EXPECT_EQ(joined.times().joinedKicks, 300 - 1 - 300 / 37);  // all but the last and the check steps
+      EXPECT_EQ(separate.times().joinedKicks, 0);
+      EXPECT_GT(separate.rebuilds(), 3);
+      EXPECT_GT(separate.contactStats().contacts, 50u);
+      EXPECT_EQ(joined.rebuilds(), separate.rebuilds());
+      EXPECT_TRUE(joined.particles().position() == separate.particles().position());
+      EXPECT_TRUE(joined.particles().velocity() == separate.particles().velocity());
+      if (c.mu > 0.0) {
+        EXPECT_TRUE(joined.particles().angularVelocity() == separate.particles().angularVelocity());
+        EXPECT_GT(separate.pairHistory().activeCount(), 0u);
+        EXPECT_TRUE(std::equal(joined.pairHistory().allValues().begin(), joined.pairHistory().allValues().end(),
+                               separate.pairHistory().allValues().begin(), separate.pairHistory().allValues().end()));
+      }
+      EXPECT_EQ(joined.energies().total(), separate.energies().total());
+    }
+  }
+  // Walls, gravity, friction and damping (the frictional reference scene, check every 50 steps).
+  DemSimulation joined = frictionalScene("linked-cell", 0.1, true);
+  DemSimulation separate = frictionalScene("linked-cell", 0.1, true);
+  joined.advance(200);
+  for (int s = 0; s < 200; ++s) separate.advance(1);
+  EXPECT_EQ(joined.times().joinedKicks, 200 - 1 - 3);
+  EXPECT_GT(separate.contactStats().wallContacts, 0u);
+  EXPECT_TRUE(joined.particles().position() == separate.particles().position());
+  EXPECT_TRUE(joined.particles().velocity() == separate.particles().velocity());
+  EXPECT_TRUE(joined.particles().angularVelocity() == separate.particles().angularVelocity());
+}
+
 /// A gas of `count` spheres (radii 1 and 2.5, so that HGrids have two levels), hot enough for frequent
 /// rebuilds: large enough (> 4096) for the threaded grid builds, pair searches and CSR fill to run.
 DemSimulation largeGas(Index count, const std::string& backend, int threads, bool friction) {
