@@ -575,8 +575,7 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     // The closing half kick joins the next step's opening pass when that step follows at once: not the call's
     // last step, no stability check after this one (it reads the full-step velocities), no stop asked for (an
     // interrupt arriving after this decision stops the run one step later, after an unfused step).
-    closePending = s + 1 < steps && !(checkInterval > 0 && (step_ + 1) % checkInterval == 0) &&
-                   !(stopOnInterrupt && interruptRequested());
+    closePending = joinClosingKick(s, steps, step_ + 1, checkInterval, stopOnInterrupt && interruptRequested());
     if (closePending) {
       ++times_.joinedKicks;
     } else {
@@ -596,33 +595,24 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
   return steps;
 }
 
-double DemSimulation::openingKickAndDrift(bool close) {
+double DemSimulation::openingKickAndDrift(bool close) { return close ? openingPass<true>() : openingPass<false>(); }
+
+template <bool kClose>
+double DemSimulation::openingPass() {
   const Index n = particles_.count();
   const int threads = settings_.threads;
   KickArrays translation{particles_.velocity().data(), particles_.force().data(), particles_.inverseMass().data(),
                          velocityPredicted_.data()};
   const DriftArrays drift{particles_.position().data(), verlet_.reference().data()};
-  double maxSq = 0.0;
-  if (close) {
-    maxSq = predict_ ? halfKick<true, true, true>(n, threads, dt_, translation, drift)
-                     : halfKick<true, false, true>(n, threads, dt_, translation, drift);
-  } else {
-    maxSq = predict_ ? halfKick<true, true>(n, threads, dt_, translation, drift)
-                     : halfKick<true, false>(n, threads, dt_, translation, drift);
-  }
+  const double maxSq = predict_ ? halfKick<true, true, kClose>(n, threads, dt_, translation, drift)
+                                : halfKick<true, false, kClose>(n, threads, dt_, translation, drift);
   if (kernel_.rotation) {
     const KickArrays rotation{particles_.angularVelocity().data(), particles_.torque().data(),
                               particles_.inverseInertia().data(), angularVelocityPredicted_.data()};
-    if (close) {
-      if (predict_) {
-        halfKick<false, true, true>(n, threads, dt_, rotation);
-      } else {
-        halfKick<false, false, true>(n, threads, dt_, rotation);
-      }
-    } else if (predict_) {
-      halfKick<false, true>(n, threads, dt_, rotation);
+    if (predict_) {
+      halfKick<false, true, kClose>(n, threads, dt_, rotation);
     } else {
-      halfKick<false, false>(n, threads, dt_, rotation);
+      halfKick<false, false, kClose>(n, threads, dt_, rotation);
     }
   }
   return maxSq;

@@ -109,6 +109,15 @@ struct PhaseTimes {
   std::int64_t joinedKicks = 0;
 };
 
+/// Whether step `s` of an advance() call of `steps` steps, which ends at global step `stepAfter`, leaves its
+/// closing half kick to the next step's opening pass: only when that step follows at once (not the call's last
+/// step), no stability check follows this one (it reads the full-step velocities) and no stop is asked for. The
+/// one rule of DemSimulation::advance and the MPI engine's advance (which passes its rank-reduced stop flag).
+inline bool joinClosingKick(std::int64_t s, std::int64_t steps, std::int64_t stepAfter, std::int64_t checkInterval,
+                            bool stopAsked) {
+  return s + 1 < steps && !(checkInterval > 0 && stepAfter % checkInterval == 0) && !stopAsked;
+}
+
 struct Energies {
   double kinetic = 0.0;     ///< translational, J
   double rotational = 0.0;  ///< J
@@ -226,6 +235,8 @@ class DemSimulation {
   /// squared displacement since the last build.
   /// `close`: apply the previous step's closing half kick in the same pass first (see advance()).
   double openingKickAndDrift(bool close = false);
+  template <bool kClose>
+  double openingPass();
   void computeForces();
   /// Second half of a step: v += dt/2 F/m (and omega += dt/2 torque/I) with the new forces.
   void closingKick();

@@ -961,8 +961,7 @@ std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
       exchangeGhosts();
     }
     computeForces();
-    closePending =
-        s + 1 < steps && !(checkInterval > 0 && (step_ + 1) % checkInterval == 0) && !(stopOnInterrupt && interrupted_);
+    closePending = integrators::joinClosingKick(s, steps, step_ + 1, checkInterval, stopOnInterrupt && interrupted_);
     if (!closePending) closingKick();
     ++step_;
     if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) check();
