@@ -39,6 +39,7 @@ struct Settings {
   double phi = 0.5;
   std::string start;
   bool globalSkin = false;
+  double lead = -1.0;  // < 0: the engine's default
   bool classes = false;
 };
 
@@ -122,6 +123,7 @@ int main(int argc, char** argv) {
   app.add_option("--warmup", s.warmup, "fixed: unmeasured collisions per particle first (skins settle)");
   app.add_option("--phi", s.phi, "packing fraction of the fixed-density state / compression target");
   app.add_option("--start", s.start, "fixed: cache of the dense start (read if it exists, else written)");
+  app.add_option("--lead", s.lead, "SystemOptions::exitLead (default: the engine's)");
   app.add_flag("--global-skin", s.globalSkin, "one skin floor for all sizes (SystemOptions::classSkins = false)");
   app.add_flag("--classes", s.classes, "print the per-size-class table");
   CLI11_PARSE(app, argc, argv);
@@ -132,6 +134,7 @@ int main(int argc, char** argv) {
 
   edmd::SystemOptions options;
   options.classSkins = !s.globalSkin;
+  if (s.lead >= 0.0) options.exitLead = s.lead;
   std::unique_ptr<edmd::HardSphereSystem> system;
   if (s.mode == "fixed") {
     const io::ParticleData d = denseStart(s);
@@ -162,11 +165,11 @@ int main(int argc, char** argv) {
              static_cast<double>(m.counts.checks) / coll, static_cast<double>(m.pairs) / coll, system->meanNeighbours(),
              m.counts.collisions, coll / m.seconds);
   if (s.classes) {
-    fmt::print("{:>5} {:>7} {:>9} {:>9} {:>8} {:>12} {:>12} {:>12}\n", "class", "count", "floor", "skin/rmin", "nb",
-               "exits/coll", "pairs/pred", "share exits");
+    fmt::print("{:>5} {:>7} {:>9} {:>9} {:>8} {:>12} {:>12} {:>12} {:>11} {:>12}\n", "class", "count", "floor",
+               "skin/rmin", "nb", "exits/coll", "pairs/pred", "share exits", "share coll", "share scans");
     // Counters of the measured part only; floor, skin and list length as they stand at its end.
     std::vector<edmd::SkinClass> after = system->skinClasses();
-    std::int64_t exits = 0;
+    std::int64_t exits = 0, collisions = 0, scans = 0;
     for (std::size_t c = 0; c < after.size(); ++c) {
       edmd::SkinClass& k = after[c];
       k.exits -= classesBefore[c].exits;
@@ -174,14 +177,18 @@ int main(int argc, char** argv) {
       k.predictions -= classesBefore[c].predictions;
       k.scans -= classesBefore[c].scans;
       exits += k.exits;
+      collisions += k.collisions;
+      scans += k.scans;
     }
     for (std::size_t c = 0; c < after.size(); ++c) {
       const edmd::SkinClass& k = after[c];
-      fmt::print("{:>5} {:>7} {:>9.3g} {:>9.3g} {:>8.1f} {:>12.3f} {:>12.1f} {:>12.3f}\n", c, k.count, k.floor,
-                 k.meanSkin, k.meanNeighbours,
+      fmt::print("{:>5} {:>7} {:>9.3g} {:>9.3g} {:>8.1f} {:>12.3f} {:>12.1f} {:>12.3f} {:>11.3f} {:>12.3f}\n", c,
+                 k.count, k.floor, k.meanSkin, k.meanNeighbours,
                  static_cast<double>(k.exits) / static_cast<double>(std::max<std::int64_t>(k.collisions, 1)),
                  static_cast<double>(k.scans) / static_cast<double>(std::max<std::int64_t>(k.predictions, 1)),
-                 static_cast<double>(k.exits) / static_cast<double>(std::max<std::int64_t>(exits, 1)));
+                 static_cast<double>(k.exits) / static_cast<double>(std::max<std::int64_t>(exits, 1)),
+                 static_cast<double>(k.collisions) / static_cast<double>(std::max<std::int64_t>(collisions, 1)),
+                 static_cast<double>(k.scans) / static_cast<double>(std::max<std::int64_t>(scans, 1)));
     }
   }
   return 0;

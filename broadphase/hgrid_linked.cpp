@@ -7,6 +7,17 @@
 
 namespace polydem::broadphase {
 
+namespace {
+
+// Cells of at least (2 r_max(l) + skin) / kCellDivisor per axis: the query's block of cells then hugs its
+// range more tightly than with cells of the largest pair distance (fewer candidates, more cells visited).
+constexpr double kCellDivisor = 1.0;
+
+// Spare slots given to a cell when it is laid out: enough that most moves into it need no relocation.
+std::int32_t roomFor(std::int32_t spheres) { return spheres == 0 ? 0 : spheres + spheres / 2 + 2; }
+
+}  // namespace
+
 void HGridLinked::doBuild(const SphereView& spheres) {
   const Index n = spheres.count();
   for (int k = 0; k < 3; ++k) {
@@ -14,11 +25,9 @@ void HGridLinked::doBuild(const SphereView& spheres) {
     length_[k] = box_.length(k);
   }
   levels_.clear();
-  xyzr_.resize(4 * static_cast<std::size_t>(n));
   level_.resize(static_cast<std::size_t>(n));
   cell_.resize(static_cast<std::size_t>(n));
-  next_.assign(static_cast<std::size_t>(n), -1);
-  prev_.assign(static_cast<std::size_t>(n), -1);
+  slot_.resize(static_cast<std::size_t>(n));
   if (n == 0) return;
   const double rmin = minRadius_;
   for (Index i = 0; i < n; ++i) {
@@ -28,62 +37,139 @@ void HGridLinked::doBuild(const SphereView& spheres) {
     if (static_cast<std::size_t>(l) >= levels_.size()) levels_.resize(static_cast<std::size_t>(l) + 1);
     Level& lv = levels_[static_cast<std::size_t>(l)];
     lv.rmax = std::max(lv.rmax, r);
-    for (int k = 0; k < 3; ++k) xyzr_[4 * static_cast<std::size_t>(i) + k] = spheres.centre(k, i);
-    xyzr_[4 * static_cast<std::size_t>(i) + 3] = r;
+    ++lv.spheres;
   }
-  // At most ~8 N cells per level: per axis min(L / (2 r_max + skin), (8 N)^(1/3)).
+  // At most ~8 N cells per level: per axis min(L kCellDivisor / (2 r_max + skin), (8 N)^(1/3)).
   const double perAxisCap = std::max(1.0, std::floor(std::cbrt(8.0 * static_cast<double>(n))));
   for (Level& lv : levels_) {
-    std::int64_t cells = 1;
+    if (lv.spheres == 0) continue;
+    std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
-      const double fit = lv.rmax > 0.0 ? std::floor(length_[k] / (2.0 * lv.rmax + skin_)) : 1.0;
+      const double fit = std::floor(kCellDivisor * length_[k] / (2.0 * lv.rmax + skin_));
       lv.n[k] = static_cast<std::int32_t>(std::clamp(fit, 1.0, perAxisCap));
-      lv.inverseCell[k] = 1.0 / (length_[k] / lv.n[k]);
-      cells *= lv.n[k];
+      lv.cell[k] = length_[k] / lv.n[k];
+      lv.inverseCell[k] = 1.0 / lv.cell[k];
+      cells *= static_cast<std::size_t>(lv.n[k]);
     }
-    lv.head.assign(lv.rmax > 0.0 ? static_cast<std::size_t>(cells) : 0, -1);
+    lv.run.assign(cells, Run{});
+    lv.room.assign(cells, 0);
   }
-  for (Index i = 0; i < n; ++i) link(i);
+  for (Index i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    Level& lv = levels_[level_[ui]];
+    const double x[3] = {spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i)};
+    cell_[ui] = cellOf(lv, x);
+    ++lv.run[static_cast<std::size_t>(cell_[ui])].size;
+  }
+  for (Level& lv : levels_) {
+    if (lv.spheres == 0) continue;
+    std::int32_t at = 0;
+    for (std::size_t c = 0; c < lv.run.size(); ++c) {
+      lv.room[c] = roomFor(lv.run[c].size);
+      lv.run[c] = Run{at, 0};
+      at += lv.room[c];
+    }
+    lv.slots.resize(static_cast<std::size_t>(at));
+    lv.id.assign(static_cast<std::size_t>(at), -1);
+    lv.laidOut = static_cast<std::size_t>(at);
+  }
+  for (Index i = 0; i < n; ++i) {
+    const auto ui = static_cast<std::size_t>(i);
+    const Slot s{{spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i]}};
+    append(levels_[level_[ui]], cell_[ui], i, s);
+  }
 }
 
-std::int64_t HGridLinked::cellOf(const Level& lv, const double x[3]) const {
+std::int32_t HGridLinked::cellOf(const Level& lv, const double x[3]) const {
   std::int64_t key = 0;
   for (int k = 2; k >= 0; --k) {
     const auto c = static_cast<std::int64_t>(std::floor(x[k] * lv.inverseCell[k]));
     key = key * lv.n[k] + std::clamp<std::int64_t>(c, 0, lv.n[k] - 1);
   }
-  return key;
+  return static_cast<std::int32_t>(key);
 }
 
-void HGridLinked::link(Index i) {
-  const auto ui = static_cast<std::size_t>(i);
-  Level& lv = levels_[level_[ui]];
-  const std::int64_t c = cellOf(lv, &xyzr_[4 * ui]);
-  cell_[ui] = c;
-  Index& head = lv.head[static_cast<std::size_t>(c)];
-  prev_[ui] = -1;
-  next_[ui] = head;
-  if (head >= 0) prev_[static_cast<std::size_t>(head)] = i;
-  head = i;
-}
-
-void HGridLinked::unlink(Index i) {
-  const auto ui = static_cast<std::size_t>(i);
-  Level& lv = levels_[level_[ui]];
-  if (prev_[ui] >= 0) {
-    next_[static_cast<std::size_t>(prev_[ui])] = next_[ui];
-  } else {
-    lv.head[static_cast<std::size_t>(cell_[ui])] = next_[ui];
+void HGridLinked::layOut(Level& lv) {
+  std::vector<Slot> slots;
+  std::vector<Index> id;
+  std::size_t total = 0;
+  for (const Run& run : lv.run) total += static_cast<std::size_t>(roomFor(run.size));
+  slots.resize(total);
+  id.assign(total, -1);
+  std::int32_t at = 0;
+  for (std::size_t c = 0; c < lv.run.size(); ++c) {
+    const std::int32_t from = lv.run[c].begin, m = lv.run[c].size;
+    for (std::int32_t k = 0; k < m; ++k) {
+      slots[static_cast<std::size_t>(at + k)] = lv.slots[static_cast<std::size_t>(from + k)];
+      const Index j = lv.id[static_cast<std::size_t>(from + k)];
+      id[static_cast<std::size_t>(at + k)] = j;
+      slot_[static_cast<std::size_t>(j)] = at + k;
+    }
+    lv.run[c].begin = at;
+    lv.room[c] = roomFor(m);
+    at += lv.room[c];
   }
-  if (next_[ui] >= 0) prev_[static_cast<std::size_t>(next_[ui])] = prev_[ui];
+  lv.slots.swap(slots);
+  lv.id.swap(id);
+  lv.laidOut = total;
+}
+
+void HGridLinked::append(Level& lv, std::int32_t cell, Index i, const Slot& s) {
+  const auto c = static_cast<std::size_t>(cell);
+  if (lv.run[c].size == lv.room[c]) {
+    // Full: move the cell's run to the end of the array with twice the room (compact first when the
+    // abandoned runs have doubled the array).
+    if (lv.slots.size() > 2 * lv.laidOut + 1024) layOut(lv);
+    if (lv.run[c].size == lv.room[c]) {
+      const std::int32_t from = lv.run[c].begin, m = lv.run[c].size;
+      const std::int32_t room = 2 * m + 2;
+      const auto to = static_cast<std::int32_t>(lv.slots.size());
+      lv.slots.resize(lv.slots.size() + static_cast<std::size_t>(room));
+      lv.id.resize(lv.id.size() + static_cast<std::size_t>(room), -1);
+      for (std::int32_t k = 0; k < m; ++k) {
+        lv.slots[static_cast<std::size_t>(to + k)] = lv.slots[static_cast<std::size_t>(from + k)];
+        const Index j = lv.id[static_cast<std::size_t>(from + k)];
+        lv.id[static_cast<std::size_t>(to + k)] = j;
+        slot_[static_cast<std::size_t>(j)] = to + k;
+      }
+      lv.run[c].begin = to;
+      lv.room[c] = room;
+    }
+  }
+  Run& run = lv.run[c];
+  const std::int32_t at = run.begin + run.size++;
+  lv.slots[static_cast<std::size_t>(at)] = s;
+  lv.id[static_cast<std::size_t>(at)] = i;
+  slot_[static_cast<std::size_t>(i)] = at;
+  cell_[static_cast<std::size_t>(i)] = cell;
+}
+
+void HGridLinked::remove(Level& lv, Index i) {
+  const auto ui = static_cast<std::size_t>(i);
+  Run& run = lv.run[static_cast<std::size_t>(cell_[ui])];
+  const std::int32_t at = slot_[ui];
+  const std::int32_t last = run.begin + --run.size;
+  if (at != last) {
+    const Index j = lv.id[static_cast<std::size_t>(last)];
+    lv.slots[static_cast<std::size_t>(at)] = lv.slots[static_cast<std::size_t>(last)];
+    lv.id[static_cast<std::size_t>(at)] = j;
+    slot_[static_cast<std::size_t>(j)] = at;
+  }
+  lv.id[static_cast<std::size_t>(last)] = -1;
 }
 
 void HGridLinked::move(Index i, const double x[3]) {
   const auto ui = static_cast<std::size_t>(i);
-  for (int k = 0; k < 3; ++k) xyzr_[4 * ui + k] = x[k];
-  if (cellOf(levels_[level_[ui]], x) == cell_[ui]) return;
-  unlink(i);
-  link(i);
+  Level& lv = levels_[level_[ui]];
+  const std::int32_t cell = cellOf(lv, x);
+  Slot& s = lv.slots[static_cast<std::size_t>(slot_[ui])];
+  if (cell == cell_[ui]) {
+    for (int k = 0; k < 3; ++k) s.c[k] = x[k];
+    return;
+  }
+  const Slot moved{{x[0], x[1], x[2], s.c[3]}};
+  remove(lv, i);
+  append(lv, cell, i, moved);
 }
 
 void HGridLinked::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
@@ -97,42 +183,83 @@ template <bool kCount>
 void HGridLinked::query(Index i, double reach, std::vector<Index>& out) const {
   out.clear();
   const auto ui = static_cast<std::size_t>(i);
-  const double* xi = &xyzr_[4 * ui];
-  const double ri = xi[3];
-  const double* packed = xyzr_.data();
-  for (const Level& lv : levels_) {
-    if (lv.head.empty()) continue;
-    std::int32_t lo[3], count[3];
-    const double range = ri + lv.rmax + reach;
-    for (int k = 0; k < 3; ++k) {
-      const auto a = static_cast<std::int64_t>(std::floor((xi[k] - range) * lv.inverseCell[k]));
-      const auto b = static_cast<std::int64_t>(std::floor((xi[k] + range) * lv.inverseCell[k]));
-      if (b - a + 1 >= lv.n[k]) {
-        lo[k] = 0;
-        count[k] = lv.n[k];
-      } else if (periodic_[k]) {
-        lo[k] = static_cast<std::int32_t>(a);
-        count[k] = static_cast<std::int32_t>(b - a + 1);
-      } else {
-        const std::int64_t a0 = std::max<std::int64_t>(a, 0), b0 = std::min<std::int64_t>(b, lv.n[k] - 1);
-        lo[k] = static_cast<std::int32_t>(a0);
-        count[k] = static_cast<std::int32_t>(std::max<std::int64_t>(b0 - a0 + 1, 0));
+  const Slot& own = levels_[level_[ui]].slots[static_cast<std::size_t>(slot_[ui])];
+  const double xi[3] = {own.c[0], own.c[1], own.c[2]};
+  const double ri = own.c[3];
+  // Two passes: the cells to visit on every level are gathered first, with their runs' headers prefetched,
+  // so that those scattered loads overlap instead of each one stalling the scan (the query is bound by them).
+  visit_.clear();
+  std::array<std::size_t, 64> levelEnd{};
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    const Level& lv = levels_[l];
+    if (lv.spheres > 0) {
+      std::int32_t lo[3], count[3];
+      bool whole[3];
+      const double range = ri + lv.rmax + reach;
+      for (int k = 0; k < 3; ++k) {
+        const auto a = static_cast<std::int64_t>(std::floor((xi[k] - range) * lv.inverseCell[k]));
+        const auto b = static_cast<std::int64_t>(std::floor((xi[k] + range) * lv.inverseCell[k]));
+        whole[k] = b - a + 1 >= lv.n[k];
+        if (whole[k]) {
+          lo[k] = 0;
+          count[k] = lv.n[k];
+        } else if (periodic_[k]) {
+          lo[k] = static_cast<std::int32_t>(a);
+          count[k] = static_cast<std::int32_t>(b - a + 1);
+        } else {
+          const std::int64_t a0 = std::max<std::int64_t>(a, 0), b0 = std::min<std::int64_t>(b, lv.n[k] - 1);
+          lo[k] = static_cast<std::int32_t>(a0);
+          count[k] = static_cast<std::int32_t>(std::max<std::int64_t>(b0 - a0 + 1, 0));
+        }
       }
-    }
-    auto wrap = [](std::int32_t c, std::int32_t m) { return c < 0 ? c + m : (c >= m ? c - m : c); };
-    for (std::int32_t z = 0; z < count[2]; ++z) {
-      const std::int64_t cz = wrap(lo[2] + z, lv.n[2]);
-      for (std::int32_t y = 0; y < count[1]; ++y) {
-        const std::int64_t cyz = (cz * lv.n[1] + wrap(lo[1] + y, lv.n[1])) * lv.n[0];
-        for (std::int32_t x = 0; x < count[0]; ++x) {
-          if constexpr (kCount) ++counters_.cellAccesses;
-          for (Index j = lv.head[static_cast<std::size_t>(cyz + wrap(lo[0] + x, lv.n[0]))]; j >= 0;
-               j = next_[static_cast<std::size_t>(j)]) {
-            const double* xj = packed + 4 * static_cast<std::size_t>(j);
-            if constexpr (kCount) ++counters_.pairTests;
-            if (j != i && spheresWithinReach(box_, xi, ri, xj, xj[3], reach)) out.push_back(j);
+      // Distance along axis k from the centre to cell c (unwrapped index of the block), 0 on an axis the
+      // block covers whole (its cells are visited once, whatever the image). Narrowed by a millionth of a
+      // cell for the round-off of floor(x / cell) against c * cell: a cell is only skipped out of reach.
+      auto gap = [&](int k, std::int32_t c) {
+        if (whole[k]) return 0.0;
+        const double below = c * lv.cell[k] - xi[k], above = xi[k] - (c + 1) * lv.cell[k];
+        return std::max(0.0, std::max(below, above) - 1e-6 * lv.cell[k]);
+      };
+      const double range2 = range * range;
+      auto wrap = [](std::int32_t c, std::int32_t m) { return c < 0 ? c + m : (c >= m ? c - m : c); };
+      const Run* runs = lv.run.data();
+      for (std::int32_t z = 0; z < count[2]; ++z) {
+        const double gz = gap(2, lo[2] + z);
+        const double dz2 = gz * gz;
+        if (dz2 > range2) continue;
+        const std::int64_t cz = wrap(lo[2] + z, lv.n[2]);
+        for (std::int32_t y = 0; y < count[1]; ++y) {
+          const double gy = gap(1, lo[1] + y);
+          const double dyz2 = dz2 + gy * gy;
+          if (dyz2 > range2) continue;
+          const std::int64_t cyz = (cz * lv.n[1] + wrap(lo[1] + y, lv.n[1])) * lv.n[0];
+          for (std::int32_t x = 0; x < count[0]; ++x) {
+            const double gx = gap(0, lo[0] + x);
+            if (dyz2 + gx * gx > range2) continue;
+            const auto c = static_cast<std::int32_t>(cyz + wrap(lo[0] + x, lv.n[0]));
+            __builtin_prefetch(runs + c);
+            visit_.push_back(c);
           }
         }
+      }
+    }
+    levelEnd[l] = visit_.size();
+  }
+  std::size_t v = 0;
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    const Level& lv = levels_[l];
+    const Slot* slots = lv.slots.data();
+    const Index* ids = lv.id.data();
+    const Run* runs = lv.run.data();
+    const std::size_t end = levelEnd[l];
+    for (; v < end; ++v) {
+      if (v + 2 < end) __builtin_prefetch(slots + runs[visit_[v + 2]].begin);
+      if constexpr (kCount) ++counters_.cellAccesses;
+      const Run run = runs[visit_[v]];
+      for (std::int32_t k = run.begin; k < run.begin + run.size; ++k) {
+        const double* xj = slots[k].c;
+        if constexpr (kCount) ++counters_.pairTests;
+        if (spheresWithinReach(box_, xi, ri, xj, xj[3], reach) && ids[k] != i) out.push_back(ids[k]);
       }
     }
   }
@@ -159,16 +286,18 @@ void HGridLinked::findPairs(const SphereView& spheres, std::vector<Pair>& out) c
 }
 
 std::size_t HGridLinked::memoryBytes() const {
-  std::size_t bytes = xyzr_.capacity() * sizeof(double) + level_.capacity() + cell_.capacity() * sizeof(std::int64_t) +
-                      (next_.capacity() + prev_.capacity()) * sizeof(Index);
-  for (const Level& lv : levels_) bytes += lv.head.capacity() * sizeof(Index);
+  std::size_t bytes = level_.capacity() + (cell_.capacity() + slot_.capacity()) * sizeof(std::int32_t);
+  for (const Level& lv : levels_) {
+    bytes += lv.run.capacity() * sizeof(Run) + lv.room.capacity() * sizeof(std::int32_t) +
+             lv.slots.capacity() * sizeof(Slot) + lv.id.capacity() * sizeof(Index);
+  }
   return bytes;
 }
 
 std::string HGridLinked::describe() const {
   std::string s = fmt::format("hgrid-linked L={}", levels_.size());
   for (const Level& lv : levels_) {
-    if (!lv.head.empty()) s += fmt::format(" {}x{}x{}", lv.n[0], lv.n[1], lv.n[2]);
+    if (lv.spheres > 0) s += fmt::format(" {}x{}x{}", lv.n[0], lv.n[1], lv.n[2]);
   }
   return s;
 }

@@ -1,26 +1,35 @@
 #pragma once
-// A multi-level grid whose cells are doubly linked lists, so that moving one sphere is O(1) and update() is
-// O(|moved|) however far the spheres went: the index that answers the event-driven engine's neighbourhood
-// exits (Donev 2006, thesis, §3.4.7, Algorithm 10: which neighbourhoods overlap the re-centred one), and a
-// registered backend like any other, so it runs through the property suite against brute force.
+// A multi-level grid whose cells are growable buckets, so that moving one sphere is O(1) (amortised) and
+// update() is O(|moved|) however far the spheres went: the index that answers the event-driven engine's
+// neighbourhood exits (Donev 2006, thesis, §3.4.7, Algorithm 10: which neighbourhoods overlap the
+// re-centred one), and a registered backend like any other, so it runs through the property suite against
+// brute force.
 //
-// Level l holds the spheres with radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least 2 r_max(l) +
-// skin per axis (at most (8 N)^(1/3) per axis, so about 8 N cells per level at most). A query for sphere i
-// visits, on every level, the cells within r_i + r_max(l) + reach of its centre (the top-down search of
-// Ogarko's thesis §2.2.3; Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357); an axis whose range
-// covers all its cells is visited once (no wrapped duplicates), walled axes are clipped. Candidates go
-// through the one pair predicate (spheresWithinReach), so the lists are those of every other backend.
+// Level l holds the spheres with radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least r_max(l) +
+// skin / 2 per axis (at most (8 N)^(1/3) per axis, so about 8 N cells per level at most). A query for sphere
+// i visits, on every level, the cells within r_i + r_max(l) + reach of its centre (the top-down search of
+// Ogarko's thesis §2.2.3; Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357) and skips the cells of
+// that block whose box lies farther than that from the centre; an axis whose range covers all its cells is
+// visited once (no wrapped duplicates), walled axes are clipped. Candidates go through the one pair
+// predicate (spheresWithinReach), so the lists are those of every other backend.
+//
+// Storage: each cell is a run of slots in its level's array (centre and radius packed, x, y, z, r, and the
+// sphere's number beside it), with spare room. A query reads a cell's spheres as one contiguous run; a move
+// overwrites the slot with the cell's last entry and appends to the new cell, relocating that cell's run to
+// the end of the array with doubled room when it is full. The array is compacted when relocations have
+// doubled it. (Until issue 17's session 16 the cells were linked lists: the same O(1) moves, but a query
+// chased one pointer per candidate, and at uniform volume omega = 50 the exit queries took 44% of the
+// event-driven run; docs/edmd-results.md.)
 //
 // Against the shared HGrid (hgrid.hpp): no cost-model optimiser (the levels are fixed powers of two, which
-// costs more pair tests per query on narrow distributions) and no sorted cell storage (a query walks
-// linked lists: more cache misses per visited sphere), but a move never leaves the structure, where the
+// costs more pair tests per query on narrow distributions), but a move never leaves the structure, where the
 // HGrid parks every sphere that changed cell in an overflow hash until its next build. In an event-driven
 // run every neighbourhood moves a few times between global rebuilds, so the HGrid's queries ran mostly
 // through that hash (mono N = 10,000, phi 0.5: 28% of the time in exits; uniform volume omega = 50: 65%).
 //
-// The index keeps its own packed copy of the centres and radii (x, y, z, r per sphere): queries use the
-// positions given at build() / update(), and update() reads the moved spheres' new centres from the view.
-// Radii must not change between builds.
+// The index keeps its own copy of the centres and radii: queries use the positions given at build() /
+// update(), and update() reads the moved spheres' new centres from the view. Radii must not change between
+// builds.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -43,32 +52,45 @@ class HGridLinked final : public BroadPhase {
   void doUpdate(const SphereView& spheres, std::span<const Index> moved) override;
 
  private:
-  /// Sphere i now has its centre at x (inside the box; radius unchanged). O(1). What update() does for each
-  /// moved sphere.
+  /// Sphere i now has its centre at x (inside the box; radius unchanged). O(1) amortised. What update()
+  /// does for each moved sphere.
   void move(Index i, const double x[3]);
 
+  struct Slot {
+    double c[4];  // centre x, y, z and radius
+  };
+  struct Run {
+    std::int32_t begin = 0, size = 0;
+  };
   struct Level {
     double rmax = 0.0;
-    std::array<double, 3> inverseCell{};
+    std::array<double, 3> inverseCell{}, cell{};
     std::array<std::int32_t, 3> n{};
-    std::vector<Index> head;  // first sphere of each cell, -1 if empty
+    std::vector<Run> run;            // per cell: its spheres' slots
+    std::vector<std::int32_t> room;  // per cell: slots reserved from run.begin
+    std::vector<Slot> slots;         // the cells' runs, spare room included
+    std::vector<Index> id;           // the sphere in each slot
+    std::size_t spheres = 0;
+    std::size_t laidOut = 0;  // slots at the last layOut(): relocations past twice that compact the array
   };
   /// Every j != i with gap(i, j) <= reach (0 <= reach <= skin), ascending, from the index's own copy of the
   /// positions; counts cell accesses and pair tests with kCount. Clears `out` first.
   template <bool kCount>
   void query(Index i, double reach, std::vector<Index>& out) const;
-  std::int64_t cellOf(const Level& lv, const double x[3]) const;
-  void link(Index i);
-  void unlink(Index i);
+  std::int32_t cellOf(const Level& lv, const double x[3]) const;
+  /// Lay out every cell of `lv` afresh with room for its spheres plus spare (build and compaction).
+  void layOut(Level& lv);
+  void append(Level& lv, std::int32_t cell, Index i, const Slot& s);
+  void remove(Level& lv, Index i);
 
   std::array<bool, 3> periodic_{};
   std::array<double, 3> length_{};
   std::vector<Level> levels_;
-  std::vector<double> xyzr_;  // 4 per sphere: centre and radius, packed for the query loop
   std::vector<std::uint8_t> level_;
-  std::vector<std::int64_t> cell_;
-  std::vector<Index> next_, prev_;
-  mutable std::vector<Index> scratch_;  // findPairs' per-sphere query, kept so steady-state calls do not allocate
+  std::vector<std::int32_t> cell_;           // sphere -> cell on its level
+  std::vector<std::int32_t> slot_;           // sphere -> slot on its level
+  mutable std::vector<std::int32_t> visit_;  // a query's cells, gathered (and prefetched) before they are read
+  mutable std::vector<Index> scratch_;       // findPairs' per-sphere query, kept so steady-state calls do not allocate
 };
 
 }  // namespace polydem::broadphase

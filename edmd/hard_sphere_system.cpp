@@ -34,6 +34,9 @@ HardSphereSystem::HardSphereSystem(const Box& box, const Eigen::Matrix3Xd& posit
   }
   if (!(options_.skinCap > 0.0)) throw ConfigError(fmt::format("skin cap must be > 0, got {}", options_.skinCap));
   if (!(options_.skinFloor > 0.0)) throw ConfigError(fmt::format("skin floor must be > 0, got {}", options_.skinFloor));
+  if (!(options_.exitLead >= 0.0 && options_.exitLead <= 0.9)) {
+    throw ConfigError(fmt::format("exit lead must be in [0, 0.9], got {}", options_.exitLead));
+  }
   skinFloor_ = options_.skinFloor;
   if (!(options_.minSeparationSpeed > 0.0)) {
     throw ConfigError(fmt::format("minimum separation speed must be > 0, got {}", options_.minSeparationSpeed));

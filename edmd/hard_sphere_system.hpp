@@ -121,6 +121,13 @@ struct SystemOptions {
   /// (0 = only at rebuilds). Neighbours then sit close in memory: the prediction loop is bound by loads
   /// of the neighbours' states. Invisible to callers (every accessor uses the caller's order).
   double resortInterval = 50.0;
+  /// Largest lead of a re-centred neighbourhood: at an exit, the new neighbourhood is centred ahead of the
+  /// sphere along its velocity, by a fraction (the lead) of its room rho_i - O_i (0: on the sphere, as in
+  /// Donev 2006). A sphere flying straight then crosses (1 + lead) x room before its next exit instead of
+  /// 1 x room; one that turns back exits after (1 - lead) x room. The lead of each size class follows from
+  /// its bounces per exit (HardSphereSystem::exitLead): near this cap for spheres that fly farther than
+  /// their room between collisions, 0 for caged ones. In [0, 0.9]; 0 turns leads off.
+  double exitLead = 0.9;
 };
 
 enum class EventKind : std::uint8_t {
@@ -315,6 +322,10 @@ class HardSphereSystem {
   void checkInput(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius,
                   const Eigen::Matrix3Xd& velocity) const;
   void advance(Index i);
+  /// Centre i's neighbourhood for an exit: ahead of the sphere along its velocity by exitLead(class of i).
+  void placeCentre(Index i);
+  /// Lead of the re-centred neighbourhoods of class c, in [0, SystemOptions::exitLead].
+  double exitLead(std::size_t c) const;
   void advanceAll();
   void resetSchedule();
   void rebuildNeighbourhoods();
