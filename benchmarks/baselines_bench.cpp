@@ -143,7 +143,7 @@ int main(int argc, char** argv) {
   }
   std::vector<std::string> updated = {"linked-cell", "sap"};
   updated.insert(updated.end(),
-                 {"lbvh", "aabb-tree", "hgrid-linked"});  // refit / incremental trees (issue 23), linked grid
+                 {"lbvh", "aabb-tree", "hgrid-dynamic"});  // refit / incremental trees (issue 23), grid of runs
 #if POLYDEM_WITH_CGAL
   updated.insert(updated.end(), {"delaunay", "delaunay-move"});  // default (rebuild above 25% moved) vs move()
 #endif

@@ -8,7 +8,7 @@
 #include "broadphase/auto_select.hpp"
 #include "broadphase/brute_force.hpp"
 #include "broadphase/hgrid.hpp"
-#include "broadphase/hgrid_linked.hpp"
+#include "broadphase/hgrid_dynamic.hpp"
 #include "broadphase/hgrid_optimiser.hpp"
 #include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
@@ -52,7 +52,7 @@ constexpr Entry kBackends[] = {
     {"sap", &make<SweepAndPrune>},
     {"lbvh", &make<Lbvh>},
     {"aabb-tree", &make<AabbTree>},
-    {"hgrid-linked", &make<HGridLinked>},
+    {"hgrid-dynamic", &make<HGridDynamic>},
 #if POLYDEM_WITH_CGAL
     {"cgal-box", &make<CgalBox>},
     {"delaunay", &make<Delaunay>},

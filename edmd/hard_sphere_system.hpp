@@ -16,9 +16,10 @@
 // * Near-neighbour lists with bounding neighbourhoods (Donev 2006, §3.3.2): neighbourhood i is a sphere
 //   of radius rho_i = O_i + skin_i centred where i was when it was built; i and j are neighbours when
 //   their neighbourhoods overlap, and a collision with a non-neighbour is impossible while both stay
-//   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood and refreshes the
+//   inside. Leaving the neighbourhood is an event; it re-centres the neighbourhood (on wide distributions
+//   ahead of the sphere along its velocity, SystemOptions::exitLead) and refreshes the
 //   list through the exit index, a second broad-phase backend over the neighbourhoods (SystemOptions::
-//   exitIndex, by default hgrid-linked: a multi-level grid of linked cells, O(1) moves), with update() for
+//   exitIndex, by default hgrid-dynamic: a multi-level grid of cells stored as runs, O(1) moves), with update() for
 //   the one moved neighbourhood and findNeighbours(), so the work per event does not depend on the size
 //   ratio. The broad phase SystemOptions::broadPhase builds the first lists (build() + findPairs()); later
 //   global rebuilds take findPairs() of the exit index (the HGrid's level optimiser made each build cost
@@ -68,9 +69,9 @@ struct SystemOptions {
   /// Broad phase over the neighbourhoods that answers exits (update() with the one re-centred
   /// neighbourhood, then findNeighbours()) and the later global rebuilds (build() + findPairs()). Any
   /// complete backend gives the same lists; one whose update() is O(|moved|) keeps an exit O(1):
-  /// hgrid-linked (broadphase/hgrid_linked.hpp). Every registered backend is complete; an unknown name is a
+  /// hgrid-dynamic (broadphase/hgrid_dynamic.hpp). Every registered backend is complete; an unknown name is a
   /// ConfigError.
-  std::string exitIndex = "hgrid-linked";
+  std::string exitIndex = "hgrid-dynamic";
   /// mu: neighbourhood radius rho_i = O_i + (mu - 1) min(O_i, kappa O_min) at each global rebuild.
   double neighbourhoodScale = 1.4;
   /// kappa: cap of the skin in units of the smallest radius (wide size distributions).

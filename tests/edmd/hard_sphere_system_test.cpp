@@ -244,7 +244,7 @@ TEST(HardSphereSystem, TrajectoryIndependentOfExitIndex) {
   const Eigen::Matrix3Xd v = randomVelocities(n, 23);
   Eigen::Matrix3Xd reference;
   std::int64_t referenceExits = 0;
-  for (const char* backend : {"hgrid-linked", "brute", "linked-cell", "hgrid-td", "lbvh"}) {
+  for (const char* backend : {"hgrid-dynamic", "brute", "linked-cell", "hgrid-td", "lbvh"}) {
     SCOPED_TRACE(backend);
     SystemOptions options;
     options.exitIndex = backend;

@@ -1,4 +1,4 @@
-#include "broadphase/hgrid_linked.hpp"
+#include "broadphase/hgrid_dynamic.hpp"
 
 #include <fmt/format.h>
 
@@ -18,7 +18,7 @@ std::int32_t roomFor(std::int32_t spheres) { return spheres == 0 ? 0 : spheres +
 
 }  // namespace
 
-void HGridLinked::doBuild(const SphereView& spheres) {
+void HGridDynamic::doBuild(const SphereView& spheres) {
   const Index n = spheres.count();
   for (int k = 0; k < 3; ++k) {
     periodic_[k] = box_.periodic(k);
@@ -80,7 +80,7 @@ void HGridLinked::doBuild(const SphereView& spheres) {
   }
 }
 
-std::int32_t HGridLinked::cellOf(const Level& lv, const double x[3]) const {
+std::int32_t HGridDynamic::cellOf(const Level& lv, const double x[3]) const {
   std::int64_t key = 0;
   for (int k = 2; k >= 0; --k) {
     const auto c = static_cast<std::int64_t>(std::floor(x[k] * lv.inverseCell[k]));
@@ -89,7 +89,7 @@ std::int32_t HGridLinked::cellOf(const Level& lv, const double x[3]) const {
   return static_cast<std::int32_t>(key);
 }
 
-void HGridLinked::layOut(Level& lv) {
+void HGridDynamic::layOut(Level& lv) {
   std::vector<Slot> slots;
   std::vector<Index> id;
   std::size_t total = 0;
@@ -114,7 +114,7 @@ void HGridLinked::layOut(Level& lv) {
   lv.laidOut = total;
 }
 
-void HGridLinked::append(Level& lv, std::int32_t cell, Index i, const Slot& s) {
+void HGridDynamic::append(Level& lv, std::int32_t cell, Index i, const Slot& s) {
   const auto c = static_cast<std::size_t>(cell);
   if (lv.run[c].size == lv.room[c]) {
     // Full: move the cell's run to the end of the array with twice the room (compact first when the
@@ -144,7 +144,7 @@ void HGridLinked::append(Level& lv, std::int32_t cell, Index i, const Slot& s) {
   cell_[static_cast<std::size_t>(i)] = cell;
 }
 
-void HGridLinked::remove(Level& lv, Index i) {
+void HGridDynamic::remove(Level& lv, Index i) {
   const auto ui = static_cast<std::size_t>(i);
   Run& run = lv.run[static_cast<std::size_t>(cell_[ui])];
   const std::int32_t at = slot_[ui];
@@ -158,7 +158,7 @@ void HGridLinked::remove(Level& lv, Index i) {
   lv.id[static_cast<std::size_t>(last)] = -1;
 }
 
-void HGridLinked::move(Index i, const double x[3]) {
+void HGridDynamic::move(Index i, const double x[3]) {
   const auto ui = static_cast<std::size_t>(i);
   Level& lv = levels_[level_[ui]];
   const std::int32_t cell = cellOf(lv, x);
@@ -172,7 +172,7 @@ void HGridLinked::move(Index i, const double x[3]) {
   append(lv, cell, i, moved);
 }
 
-void HGridLinked::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
+void HGridDynamic::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   for (const Index i : moved) {
     const double x[3] = {spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i)};
     move(i, x);
@@ -180,7 +180,7 @@ void HGridLinked::doUpdate(const SphereView& spheres, std::span<const Index> mov
 }
 
 template <bool kCount>
-void HGridLinked::query(Index i, double reach, std::vector<Index>& out) const {
+void HGridDynamic::query(Index i, double reach, std::vector<Index>& out) const {
   out.clear();
   const auto ui = static_cast<std::size_t>(i);
   const Slot& own = levels_[level_[ui]].slots[static_cast<std::size_t>(slot_[ui])];
@@ -266,11 +266,11 @@ void HGridLinked::query(Index i, double reach, std::vector<Index>& out) const {
   std::sort(out.begin(), out.end());
 }
 
-void HGridLinked::findNeighbours(const SphereView& /*spheres*/, Index i, double reach, std::vector<Index>& out) const {
+void HGridDynamic::findNeighbours(const SphereView& /*spheres*/, Index i, double reach, std::vector<Index>& out) const {
   query<false>(i, reach, out);
 }
 
-void HGridLinked::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {
+void HGridDynamic::findPairs(const SphereView& spheres, std::vector<Pair>& out) const {
   out.clear();
   const Index n = spheres.count();
   for (Index i = 0; i < n; ++i) {
@@ -285,7 +285,7 @@ void HGridLinked::findPairs(const SphereView& spheres, std::vector<Pair>& out) c
   }
 }
 
-std::size_t HGridLinked::memoryBytes() const {
+std::size_t HGridDynamic::memoryBytes() const {
   std::size_t bytes = level_.capacity() + (cell_.capacity() + slot_.capacity()) * sizeof(std::int32_t);
   for (const Level& lv : levels_) {
     bytes += lv.run.capacity() * sizeof(Run) + lv.room.capacity() * sizeof(std::int32_t) +
@@ -294,8 +294,8 @@ std::size_t HGridLinked::memoryBytes() const {
   return bytes;
 }
 
-std::string HGridLinked::describe() const {
-  std::string s = fmt::format("hgrid-linked L={}", levels_.size());
+std::string HGridDynamic::describe() const {
+  std::string s = fmt::format("hgrid-dynamic L={}", levels_.size());
   for (const Level& lv : levels_) {
     if (lv.spheres > 0) s += fmt::format(" {}x{}x{}", lv.n[0], lv.n[1], lv.n[2]);
   }

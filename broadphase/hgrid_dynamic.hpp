@@ -17,9 +17,8 @@
 // sphere's number beside it), with spare room. A query reads a cell's spheres as one contiguous run; a move
 // overwrites the slot with the cell's last entry and appends to the new cell, relocating that cell's run to
 // the end of the array with doubled room when it is full. The array is compacted when relocations have
-// doubled it. (Until issue 17's session 16 the cells were linked lists: the same O(1) moves, but a query
-// chased one pointer per candidate, and at uniform volume omega = 50 the exit queries took 44% of the
-// event-driven run; docs/edmd-results.md.)
+// doubled it. (Until session 16 the cells were linked lists, as backend `hgrid-linked`: the same O(1) moves, but
+// a query chased one pointer per candidate.)
 //
 // Against the shared HGrid (hgrid.hpp): no cost-model optimiser (the levels are fixed powers of two, which
 // costs more pair tests per query on narrow distributions), but a move never leaves the structure, where the
@@ -27,9 +26,9 @@
 // run every neighbourhood moves a few times between global rebuilds, so the HGrid's queries ran mostly
 // through that hash (mono N = 10,000, phi 0.5: 28% of the time in exits; uniform volume omega = 50: 65%).
 //
-// The index keeps its own copy of the centres and radii: queries use the positions given at build() /
-// update(), and update() reads the moved spheres' new centres from the view. Radii must not change between
-// builds.
+// A query gathers its cells in a scratch array of the index: one query at a time per index (the engine's
+// exits are serial). The index keeps its own copy of the centres and radii: queries use the positions given at build()
+// / update(), and update() reads the moved spheres' new centres from the view. Radii must not change between builds.
 #include <array>
 #include <cstdint>
 #include <vector>
@@ -38,9 +37,9 @@
 
 namespace polydem::broadphase {
 
-class HGridLinked final : public BroadPhase {
+class HGridDynamic final : public BroadPhase {
  public:
-  std::string_view name() const override { return "hgrid-linked"; }
+  std::string_view name() const override { return "hgrid-dynamic"; }
   Capabilities capabilities() const override { return {.complete = true, .incremental = true}; }
   void findPairs(const SphereView& spheres, std::vector<Pair>& out) const override;
   void findNeighbours(const SphereView& spheres, Index i, double reach, std::vector<Index>& out) const override;

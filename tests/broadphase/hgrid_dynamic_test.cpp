@@ -1,8 +1,8 @@
-// The linked multi-level grid (broadphase/hgrid_linked.hpp), the event-driven engine's exit index: every
+// The linked multi-level grid (broadphase/hgrid_dynamic.hpp), the event-driven engine's exit index: every
 // query equals brute force with the one pair predicate, on periodic and walled boxes, for a wide size
 // distribution, before and after moves far across cells through update() (the property suite covers the
 // rest, as for every registered backend).
-#include "broadphase/hgrid_linked.hpp"
+#include "broadphase/hgrid_dynamic.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,7 +26,7 @@ std::vector<Index> bruteForce(const Box& box, const Eigen::Matrix3Xd& x, const E
   return out;
 }
 
-TEST(HGridLinked, QueriesMatchBruteForceAfterMovesThroughUpdate) {
+TEST(HGridDynamic, QueriesMatchBruteForceAfterMovesThroughUpdate) {
   for (const Boundary boundary : {Boundary::Periodic, Boundary::Wall}) {
     SCOPED_TRACE(boundary == Boundary::Periodic ? "periodic" : "walls");
     const Box box(Eigen::Vector3d(25.0, 20.0, 30.0), {boundary, boundary, boundary});
@@ -42,7 +42,7 @@ TEST(HGridLinked, QueriesMatchBruteForceAfterMovesThroughUpdate) {
     x(0, 0) = 0.0;                                 // on the lower face
     x(1, 1) = std::nextafter(box.length(1), 0.0);  // just below the upper face
     const double skin = 0.3;
-    HGridLinked grid;
+    HGridDynamic grid;
     grid.build(SphereView{x, r}, box, skin);
     std::vector<Index> got;
     std::vector<Index> moved;
@@ -73,7 +73,7 @@ TEST(HGridLinked, QueriesMatchBruteForceAfterMovesThroughUpdate) {
   }
 }
 
-TEST(HGridLinked, ManyMovesRelocateAndCompactTheCells) {
+TEST(HGridDynamic, ManyMovesRelocateAndCompactTheCells) {
   // Every sphere moved 40 times to anywhere in the box (an event-driven run moves each neighbourhood a few
   // times per epoch): cells fill past their room and move to the end of their level's array, the array is
   // compacted when those moves have doubled it, and the queries still equal brute force. The index's memory
@@ -88,7 +88,7 @@ TEST(HGridLinked, ManyMovesRelocateAndCompactTheCells) {
     r[i] = i % 50 == 0 ? 2.5 : 0.5;  // two levels
     for (int k = 0; k < 3; ++k) x(k, i) = 30.0 * uniform(rng);
   }
-  HGridLinked grid;
+  HGridDynamic grid;
   grid.build(SphereView{x, r}, box, 0.2);
   const std::size_t built = grid.memoryBytes();
   std::size_t largest = built;
@@ -114,9 +114,9 @@ TEST(HGridLinked, ManyMovesRelocateAndCompactTheCells) {
   EXPECT_LT(static_cast<double>(largest), 3.5 * static_cast<double>(built));
 }
 
-TEST(HGridLinked, IsRegisteredAsACompleteIncrementalBackend) {
-  const auto bp = makeBroadPhase("hgrid-linked");
-  EXPECT_EQ(bp->name(), "hgrid-linked");
+TEST(HGridDynamic, IsRegisteredAsACompleteIncrementalBackend) {
+  const auto bp = makeBroadPhase("hgrid-dynamic");
+  EXPECT_EQ(bp->name(), "hgrid-dynamic");
   EXPECT_TRUE(bp->capabilities().complete);
   EXPECT_TRUE(bp->capabilities().incremental);
 }
