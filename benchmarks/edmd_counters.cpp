@@ -39,7 +39,8 @@ struct Settings {
   double phi = 0.5;
   std::string start;
   bool globalSkin = false;
-  double lead = -1.0;  // < 0: the engine's default
+  double lead = -1.0;      // < 0: the engine's default
+  double exitWork = -1.0;  // < 0: the engine's default
   bool classes = false;
 };
 
@@ -124,6 +125,7 @@ int main(int argc, char** argv) {
   app.add_option("--phi", s.phi, "packing fraction of the fixed-density state / compression target");
   app.add_option("--start", s.start, "fixed: cache of the dense start (read if it exists, else written)");
   app.add_option("--lead", s.lead, "SystemOptions::exitLead (default: the engine's)");
+  app.add_option("--exit-work", s.exitWork, "SystemOptions::exitWork (default: the engine's)");
   app.add_flag("--global-skin", s.globalSkin, "one skin floor for all sizes (SystemOptions::classSkins = false)");
   app.add_flag("--classes", s.classes, "print the per-size-class table");
   CLI11_PARSE(app, argc, argv);
@@ -135,6 +137,7 @@ int main(int argc, char** argv) {
   edmd::SystemOptions options;
   options.classSkins = !s.globalSkin;
   if (s.lead >= 0.0) options.exitLead = s.lead;
+  if (s.exitWork >= 0.0) options.exitWork = s.exitWork;
   std::unique_ptr<edmd::HardSphereSystem> system;
   if (s.mode == "fixed") {
     const io::ParticleData d = denseStart(s);

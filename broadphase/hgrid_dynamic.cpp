@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace polydem::broadphase {
 
@@ -245,6 +246,16 @@ void HGridDynamic::query(Index i, double reach, std::vector<Index>& out) const {
     }
     levelEnd[l] = visit_.size();
   }
+  // The candidates of a cell are tested without branches and every one is written to `out`, the count
+  // advancing only for those within reach: the pair predicate spheresWithinReach() term by term (the same
+  // minimum image, d - L where d > L / 2 and d + L where d < -L / 2, with L / 2 = inf on walled axes; the same
+  // sums in the same order), so the lists are bit for bit those of every other backend.
+  double half[3], wrapBy[3];
+  for (int k = 0; k < 3; ++k) {
+    half[k] = periodic_[k] ? 0.5 * length_[k] : std::numeric_limits<double>::infinity();
+    wrapBy[k] = periodic_[k] ? length_[k] : 0.0;
+  }
+  std::size_t found = 0;
   std::size_t v = 0;
   for (std::size_t l = 0; l < levels_.size(); ++l) {
     const Level& lv = levels_[l];
@@ -256,13 +267,24 @@ void HGridDynamic::query(Index i, double reach, std::vector<Index>& out) const {
       if (v + 2 < end) __builtin_prefetch(slots + runs[visit_[v + 2]].begin);
       if constexpr (kCount) ++counters_.cellAccesses;
       const Run run = runs[visit_[v]];
+      if constexpr (kCount) counters_.pairTests += static_cast<std::uint64_t>(run.size);
+      if (found_.size() < found + static_cast<std::size_t>(run.size)) found_.resize(2 * (found + run.size));
+      Index* o = found_.data();
       for (std::int32_t k = run.begin; k < run.begin + run.size; ++k) {
         const double* xj = slots[k].c;
-        if constexpr (kCount) ++counters_.pairTests;
-        if (spheresWithinReach(box_, xi, ri, xj, xj[3], reach) && ids[k] != i) out.push_back(ids[k]);
+        double d2 = 0.0;
+        for (int a = 0; a < 3; ++a) {
+          double d = xi[a] - xj[a];
+          d = (d - (d > half[a] ? wrapBy[a] : 0.0)) + (d < -half[a] ? wrapBy[a] : 0.0);
+          d2 = a == 0 ? d * d : d2 + d * d;
+        }
+        const double limit = (ri + xj[3]) + reach;
+        o[found] = ids[k];
+        found += static_cast<std::size_t>((d2 <= limit * limit) & (ids[k] != i));
       }
     }
   }
+  out.assign(found_.begin(), found_.begin() + static_cast<std::ptrdiff_t>(found));
   std::sort(out.begin(), out.end());
 }
 

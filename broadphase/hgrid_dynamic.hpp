@@ -88,6 +88,7 @@ class HGridDynamic final : public BroadPhase {
   std::vector<std::uint8_t> level_;
   std::vector<std::int32_t> cell_;           // sphere -> cell on its level
   std::vector<std::int32_t> slot_;           // sphere -> slot on its level
+  mutable std::vector<Index> found_;         // a query's candidates, each written, the count advancing for hits
   mutable std::vector<std::int32_t> visit_;  // a query's cells, gathered (and prefetched) before they are read
   mutable std::vector<Index> scratch_;       // findPairs' per-sphere query, kept so steady-state calls do not allocate
 };
