@@ -86,7 +86,7 @@ Configuration randomStart(const Settings& s) {
 io::ParticleData denseStart(const Settings& s) {
   if (!s.start.empty() && std::filesystem::exists(s.start)) {
     io::ParticleData data = io::readParticles(s.start);
-    if (!data.velocity) throw std::runtime_error(s.start + ": no velocities");
+    if (!data.velocity) throw std::runtime_error(s.start + ": no velocities (write the start with them: jam --velocities)");
     return data;
   }
   const Configuration c = randomStart(s);
@@ -107,33 +107,8 @@ io::ParticleData denseStart(const Settings& s) {
   return data;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Settings s;
-  CLI::App app{"EDMD cost counters per collision (fixed density or compression)"};
-  app.add_option("--dist", s.dist.kind, "mono, uniform-radius, uniform-volume, log-normal, ...");
-  app.add_option("--omega", s.dist.omega, "size ratio (log-normal: 0 = untruncated)");
-  app.add_option("--sigma", s.dist.sigma, "log-normal width");
-  app.add_option("--rmin", s.dist.rmin, "smallest radius (log-normal: lower cut, 0 = none)");
-  app.add_option("-n,--count", s.count);
-  app.add_option("--seed", s.seed);
-  app.add_option("--mode", s.mode, "fixed: run at phi; compress: from the RSA start at 0.3 to phi at rate 1e-2")
-      ->check(CLI::IsMember({"fixed", "compress"}));
-  app.add_option("--collisions", s.collisions, "measured collisions per particle (compress: the budget)");
-  app.add_option("--warmup", s.warmup, "fixed: unmeasured collisions per particle first (skins settle)");
-  app.add_option("--phi", s.phi, "packing fraction of the fixed-density state / compression target");
-  app.add_option("--start", s.start, "fixed: cache of the dense start (read if it exists, else written)");
-  app.add_option("--lead", s.lead, "SystemOptions::exitLead (default: the engine's)");
-  app.add_option("--exit-work", s.exitWork, "SystemOptions::exitWork (default: the engine's)");
-  app.add_flag("--global-skin", s.globalSkin, "one skin floor for all sizes (SystemOptions::classSkins = false)");
-  app.add_flag("--classes", s.classes, "print the per-size-class table");
-  CLI11_PARSE(app, argc, argv);
-  if (s.dist.kind == "log-normal") {  // untruncated unless cut explicitly
-    if (!app.count("--omega")) s.dist.omega = 0.0;
-    if (!app.count("--rmin")) s.dist.rmin = 0.0;
-  }
-
+// Builds the system (from --start or a fresh compression), runs the measured part, prints the counters.
+int measure(const Settings& s) {
   edmd::SystemOptions options;
   options.classSkins = !s.globalSkin;
   if (s.lead >= 0.0) options.exitLead = s.lead;
@@ -195,4 +170,39 @@ int main(int argc, char** argv) {
     }
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Settings s;
+  CLI::App app{"EDMD cost counters per collision (fixed density or compression)"};
+  app.add_option("--dist", s.dist.kind, "mono, uniform-radius, uniform-volume, log-normal, ...");
+  app.add_option("--omega", s.dist.omega, "size ratio (log-normal: 0 = untruncated)");
+  app.add_option("--sigma", s.dist.sigma, "log-normal width");
+  app.add_option("--rmin", s.dist.rmin, "smallest radius (log-normal: lower cut, 0 = none)");
+  app.add_option("-n,--count", s.count);
+  app.add_option("--seed", s.seed);
+  app.add_option("--mode", s.mode, "fixed: run at phi; compress: from the RSA start at 0.3 to phi at rate 1e-2")
+      ->check(CLI::IsMember({"fixed", "compress"}));
+  app.add_option("--collisions", s.collisions, "measured collisions per particle (compress: the budget)");
+  app.add_option("--warmup", s.warmup, "fixed: unmeasured collisions per particle first (skins settle)");
+  app.add_option("--phi", s.phi, "packing fraction of the fixed-density state / compression target");
+  app.add_option("--start", s.start, "fixed: cache of the dense start (read if it exists, else written)");
+  app.add_option("--lead", s.lead, "SystemOptions::exitLead (default: the engine's)");
+  app.add_option("--exit-work", s.exitWork, "SystemOptions::exitWork (default: the engine's)");
+  app.add_flag("--global-skin", s.globalSkin, "one skin floor for all sizes (SystemOptions::classSkins = false)");
+  app.add_flag("--classes", s.classes, "print the per-size-class table");
+  CLI11_PARSE(app, argc, argv);
+  if (s.dist.kind == "log-normal") {  // untruncated unless cut explicitly
+    if (!app.count("--omega")) s.dist.omega = 0.0;
+    if (!app.count("--rmin")) s.dist.rmin = 0.0;
+  }
+
+  try {
+    return measure(s);
+  } catch (const std::exception& e) {  // a bad start file, an engine error: a message and a non-zero exit
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 2;
+  }
 }
