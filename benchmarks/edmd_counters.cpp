@@ -86,7 +86,8 @@ Configuration randomStart(const Settings& s) {
 io::ParticleData denseStart(const Settings& s) {
   if (!s.start.empty() && std::filesystem::exists(s.start)) {
     io::ParticleData data = io::readParticles(s.start);
-    if (!data.velocity) throw std::runtime_error(s.start + ": no velocities (write the start with them: jam --velocities)");
+    if (!data.velocity)
+      throw std::runtime_error(s.start + ": no velocities (write the start with them: jam --velocities)");
     return data;
   }
   const Configuration c = randomStart(s);
