@@ -10,10 +10,6 @@ namespace polydem::broadphase {
 
 namespace {
 
-// Cells of at least (2 r_max(l) + skin) / kCellDivisor per axis: the query's block of cells then hugs its
-// range more tightly than with cells of the largest pair distance (fewer candidates, more cells visited).
-constexpr double kCellDivisor = 1.0;
-
 // Spare slots given to a cell when it is laid out: enough that most moves into it need no relocation.
 std::int32_t roomFor(std::int32_t spheres) { return spheres == 0 ? 0 : spheres + spheres / 2 + 2; }
 
@@ -40,13 +36,15 @@ void HGridDynamic::doBuild(const SphereView& spheres) {
     lv.rmax = std::max(lv.rmax, r);
     ++lv.spheres;
   }
-  // At most ~8 N cells per level: per axis min(L kCellDivisor / (2 r_max + skin), (8 N)^(1/3)).
+  // Cells of at least the level's largest pair distance 2 r_max + skin (finer cells, 1.5x and 2x per axis,
+  // meant fewer candidates but more cells per query and were slower: docs/edmd-results.md, session 16); at
+  // most ~8 N cells per level: per axis min(L / (2 r_max + skin), (8 N)^(1/3)).
   const double perAxisCap = std::max(1.0, std::floor(std::cbrt(8.0 * static_cast<double>(n))));
   for (Level& lv : levels_) {
     if (lv.spheres == 0) continue;
     std::size_t cells = 1;
     for (int k = 0; k < 3; ++k) {
-      const double fit = std::floor(kCellDivisor * length_[k] / (2.0 * lv.rmax + skin_));
+      const double fit = std::floor(length_[k] / (2.0 * lv.rmax + skin_));
       lv.n[k] = static_cast<std::int32_t>(std::clamp(fit, 1.0, perAxisCap));
       lv.cell[k] = length_[k] / lv.n[k];
       lv.inverseCell[k] = 1.0 / lv.cell[k];
@@ -62,23 +60,26 @@ void HGridDynamic::doBuild(const SphereView& spheres) {
     cell_[ui] = cellOf(lv, x);
     ++lv.run[static_cast<std::size_t>(cell_[ui])].size;
   }
+  // Counting sort into tight runs, then layOut() gives every cell its spare room.
   for (Level& lv : levels_) {
-    if (lv.spheres == 0) continue;
     std::int32_t at = 0;
-    for (std::size_t c = 0; c < lv.run.size(); ++c) {
-      lv.room[c] = roomFor(lv.run[c].size);
-      lv.run[c] = Run{at, 0};
-      at += lv.room[c];
+    for (Run& run : lv.run) {
+      run.begin = at;
+      at += run.size;
+      run.size = 0;
     }
     lv.slots.resize(static_cast<std::size_t>(at));
-    lv.id.assign(static_cast<std::size_t>(at), -1);
-    lv.laidOut = static_cast<std::size_t>(at);
+    lv.id.resize(static_cast<std::size_t>(at));
   }
   for (Index i = 0; i < n; ++i) {
     const auto ui = static_cast<std::size_t>(i);
-    const Slot s{{spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i]}};
-    append(levels_[level_[ui]], cell_[ui], i, s);
+    Level& lv = levels_[level_[ui]];
+    Run& run = lv.run[static_cast<std::size_t>(cell_[ui])];
+    const auto at = static_cast<std::size_t>(run.begin + run.size++);
+    lv.slots[at] = Slot{{spheres.centre(0, i), spheres.centre(1, i), spheres.centre(2, i), spheres.radius[i]}};
+    lv.id[at] = i;
   }
+  for (Level& lv : levels_) layOut(lv);
 }
 
 std::int32_t HGridDynamic::cellOf(const Level& lv, const double x[3]) const {
@@ -90,6 +91,16 @@ std::int32_t HGridDynamic::cellOf(const Level& lv, const double x[3]) const {
   return static_cast<std::int32_t>(key);
 }
 
+void HGridDynamic::copyRun(Level& lv, Run& run, Slot* slots, Index* id, std::int32_t to) {
+  for (std::int32_t k = 0; k < run.size; ++k) {
+    const auto from = static_cast<std::size_t>(run.begin + k), at = static_cast<std::size_t>(to + k);
+    slots[at] = lv.slots[from];
+    id[at] = lv.id[from];
+    slot_[static_cast<std::size_t>(id[at])] = to + k;
+  }
+  run.begin = to;
+}
+
 void HGridDynamic::layOut(Level& lv) {
   std::vector<Slot> slots;
   std::vector<Index> id;
@@ -99,15 +110,8 @@ void HGridDynamic::layOut(Level& lv) {
   id.assign(total, -1);
   std::int32_t at = 0;
   for (std::size_t c = 0; c < lv.run.size(); ++c) {
-    const std::int32_t from = lv.run[c].begin, m = lv.run[c].size;
-    for (std::int32_t k = 0; k < m; ++k) {
-      slots[static_cast<std::size_t>(at + k)] = lv.slots[static_cast<std::size_t>(from + k)];
-      const Index j = lv.id[static_cast<std::size_t>(from + k)];
-      id[static_cast<std::size_t>(at + k)] = j;
-      slot_[static_cast<std::size_t>(j)] = at + k;
-    }
-    lv.run[c].begin = at;
-    lv.room[c] = roomFor(m);
+    copyRun(lv, lv.run[c], slots.data(), id.data(), at);
+    lv.room[c] = roomFor(lv.run[c].size);
     at += lv.room[c];
   }
   lv.slots.swap(slots);
@@ -122,18 +126,11 @@ void HGridDynamic::append(Level& lv, std::int32_t cell, Index i, const Slot& s) 
     // abandoned runs have doubled the array).
     if (lv.slots.size() > 2 * lv.laidOut + 1024) layOut(lv);
     if (lv.run[c].size == lv.room[c]) {
-      const std::int32_t from = lv.run[c].begin, m = lv.run[c].size;
-      const std::int32_t room = 2 * m + 2;
+      const std::int32_t room = 2 * lv.run[c].size + 2;
       const auto to = static_cast<std::int32_t>(lv.slots.size());
       lv.slots.resize(lv.slots.size() + static_cast<std::size_t>(room));
       lv.id.resize(lv.id.size() + static_cast<std::size_t>(room), -1);
-      for (std::int32_t k = 0; k < m; ++k) {
-        lv.slots[static_cast<std::size_t>(to + k)] = lv.slots[static_cast<std::size_t>(from + k)];
-        const Index j = lv.id[static_cast<std::size_t>(from + k)];
-        lv.id[static_cast<std::size_t>(to + k)] = j;
-        slot_[static_cast<std::size_t>(j)] = to + k;
-      }
-      lv.run[c].begin = to;
+      copyRun(lv, lv.run[c], lv.slots.data(), lv.id.data(), to);
       lv.room[c] = room;
     }
   }

@@ -5,8 +5,8 @@
 // re-centred one), and a registered backend like any other, so it runs through the property suite against
 // brute force.
 //
-// Level l holds the spheres with radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least r_max(l) +
-// skin / 2 per axis (at most (8 N)^(1/3) per axis, so about 8 N cells per level at most). A query for sphere
+// Level l holds the spheres with radius in [r_min 2^l, r_min 2^(l+1)), in cells of at least 2 r_max(l) +
+// skin per axis (at most (8 N)^(1/3) per axis, so about 8 N cells per level at most). A query for sphere
 // i visits, on every level, the cells within r_i + r_max(l) + reach of its centre (the top-down search of
 // Ogarko's thesis §2.2.3; Krijgsman, Ogarko & Luding, Comp. Part. Mech. 1 (2014) 357) and skips the cells of
 // that block whose box lies farther than that from the centre; an axis whose range covers all its cells is
@@ -79,6 +79,9 @@ class HGridDynamic final : public BroadPhase {
   std::int32_t cellOf(const Level& lv, const double x[3]) const;
   /// Lay out every cell of `lv` afresh with room for its spheres plus spare (build and compaction).
   void layOut(Level& lv);
+  /// Copy `run`'s spheres to slot `to` of the arrays `slots` / `id` (the level's own, or new ones) and point
+  /// the run and the spheres' slot numbers there.
+  void copyRun(Level& lv, Run& run, Slot* slots, Index* id, std::int32_t to);
   void append(Level& lv, std::int32_t cell, Index i, const Slot& s);
   void remove(Level& lv, Index i);
 

@@ -266,13 +266,10 @@ void HardSphereSystem::placeCentre(Index i) {
     }
     for (int k = 0; k < 3; ++k) {
       c[k] = s.x[k] + step * s.v[k];
-      if (!periodic_[k]) {
-        c[k] = std::clamp(c[k], 0.0, length_[k]);
-      } else if (c[k] >= length_[k]) {
-        c[k] -= length_[k];
-      } else if (c[k] < 0.0) {
-        c[k] += length_[k];
-        if (c[k] >= length_[k]) c[k] = 0.0;
+      if (periodic_[k]) {
+        wrapIntoBox(c[k], k);
+      } else {
+        c[k] = std::clamp(c[k], 0.0, length_[k]);  // round-off of the step limit above
       }
     }
   }

@@ -157,16 +157,8 @@ void HardSphereSystem::advance(Index i) {
     s.t = clock_;
   }
   // A particle moves less than its neighbourhood room between updates, far below a box length, so one
-  // shift wraps it; x - L is exact for x in [L, 2L).
-  for (int k = 0; k < 3; ++k) {
-    if (!periodic_[k]) continue;
-    if (s.x[k] >= length_[k]) {
-      s.x[k] -= length_[k];
-    } else if (s.x[k] < 0.0) {
-      s.x[k] += length_[k];
-      if (s.x[k] >= length_[k]) s.x[k] = 0.0;
-    }
-  }
+  // shift wraps it.
+  for (int k = 0; k < 3; ++k) wrapIntoBox(s.x[k], k);
 }
 
 void HardSphereSystem::advanceAll() {

@@ -323,6 +323,17 @@ class HardSphereSystem {
   void checkInput(const Eigen::Matrix3Xd& position, const Eigen::VectorXd& radius,
                   const Eigen::Matrix3Xd& velocity) const;
   void advance(Index i);
+  /// Coordinate x on axis k, at most one box length outside [0, L), into [0, L) on a periodic axis (x - L is
+  /// exact for x in [L, 2L)); walled axes are left alone.
+  void wrapIntoBox(double& x, int k) const {
+    if (!periodic_[k]) return;
+    if (x >= length_[k]) {
+      x -= length_[k];
+    } else if (x < 0.0) {
+      x += length_[k];
+      if (x >= length_[k]) x = 0.0;
+    }
+  }
   /// Centre i's neighbourhood for an exit: ahead of the sphere along its velocity by exitLead(class of i).
   void placeCentre(Index i);
   /// Lead of the re-centred neighbourhoods of class c, in [0, SystemOptions::exitLead].
