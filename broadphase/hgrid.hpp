@@ -40,7 +40,11 @@
 // those cells against the box instead of walking it.
 // Measured findPairs time, N = 1e5 random centres at nu = 0.3, one core (dense : ranked : hashed):
 // mono 1 : 1.1 : 1.55; uniform volume omega = 50 with optimised sizes, TD 1 : 1.3 : 2.9, BU
-// 1 : 1.4 : 1.7. The AABB pre-check costs 15-20 % there (setAabbPrecheck(false) to skip it).
+// 1 : 1.4 : 1.7. The AABB pre-check of cross-level candidates (thesis §2.1.2) is off by default: its
+// three unpredictable comparisons cost more than the exact test they would save (measured 4 Dec 2026,
+// N = 2e5, one core, `auto`'s sizes: findPairs 13-22 % faster without it for uniform volume omega 10-100,
+// power law -3 omega 20-100, bidisperse omega 10, at packing 0.3 and 0.6, skin 0 to 1 r_min;
+// docs/benchmarks/broadphase_ratio.md). setAabbPrecheck(true) restores it.
 //
 // Work counters (setCounting) are the cost model's T_cd and T_ca per level of the searching sphere
 // (thesis §2.2.3, eqs. 2.20-2.30): per sphere 1 own-cell look-up + one per existing
@@ -168,8 +172,8 @@ class HGrid final : public BroadPhase {
   double rankedCellLimit() const { return store_.rankedLimit(); }
 
   /// Test the axis-aligned bounding boxes of cross-level candidates before the exact test (thesis §2.1.2;
-  /// on by default). Pair sets are identical either way; with SIMD-free sphere tests it rarely pays off
-  /// (measurements at the top of this file).
+  /// off by default). Pair sets are identical either way; here it costs more than it saves (measurements
+  /// at the top of this file).
   void setAabbPrecheck(bool on) { aabbPrecheck_ = on; }
   bool aabbPrecheck() const { return aabbPrecheck_; }
 
@@ -259,7 +263,7 @@ class HGrid final : public BroadPhase {
   Configurator configurator_;
   HGridConfig config_;
   std::string note_;  // how config_ came about (e.g. "default", "added top level")
-  bool aabbPrecheck_ = true;
+  bool aabbPrecheck_ = false;
 
   // Geometry and layout.
   std::array<bool, 3> periodic_{};

@@ -58,6 +58,7 @@ class LinkedCell final : public BroadPhase {
   Eigen::Vector3d inverseCellSize_ = Eigen::Vector3d::Ones();
   bool aliased_ = false;                       // some periodic axis has 2 cells: use the de-duplicating path
   std::vector<std::array<int, 3>> halfShell_;  // forward offsets
+  std::array<int, 13> shellDelta_{};           // their cell-index offsets, for cells off the boundary
   std::vector<Index> cellStart_;               // size cells + 1
   std::vector<Index> sorted_;                  // particle index per slot
   std::vector<Index> slotOf_;                  // slot per particle

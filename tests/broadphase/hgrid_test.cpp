@@ -168,8 +168,8 @@ TEST(HGridAgreement, UniformVolumeHandSetSizesMatchBruteForce) {
           bu.setConfig(sizes(s));
           bu.setStorageLimits(storage[0], storage[1]);
           EXPECT_EQ(gridPairs(bu, scene, skin), expected) << bu.describe();
-          td.setAabbPrecheck(false);
-          bu.setAabbPrecheck(false);
+          td.setAabbPrecheck(true);  // the default is off: the optional pre-check must agree too
+          bu.setAabbPrecheck(true);
           EXPECT_EQ(gridPairs(td, scene, skin), expected);
           EXPECT_EQ(gridPairs(bu, scene, skin), expected);
         }
@@ -266,8 +266,8 @@ TEST(HGridAgreement, CentresOnCellFacesOfEveryLevel) {
         bu.setStorageLimits(storage[0], storage[1]);
         EXPECT_EQ(gridPairs(bu, s, skin), expected);
         // Exact touching on faces is where a careless AABB pre-check would drop pairs.
-        td.setAabbPrecheck(false);
-        bu.setAabbPrecheck(false);
+        td.setAabbPrecheck(true);
+        bu.setAabbPrecheck(true);
         EXPECT_EQ(gridPairs(td, s, skin), expected);
         EXPECT_EQ(gridPairs(bu, s, skin), expected);
       }
