@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "broadphase/pair_chunks.hpp"
 #include "broadphase/parallel.hpp"
@@ -13,35 +14,43 @@ namespace polydem::broadphase {
 
 namespace {
 
-/// The checks of validateSpheres() without messages, in parallel: {all good, r_min, r_max}. The serial
-/// scan then names the first bad particle, so the error is the serial one.
+/// The checks of validateSpheres() without messages and without branches: {all good, r_min, r_max}. A
+/// radius is good when 0 < r < inf, a centre when 0 <= x_k < L_k (periodic) or <= L_k (walls), which also
+/// rejects NaN and inf. Threaded with OpenMP for many spheres. When something is bad, the serial scan
+/// of validateSpheres() names the first bad particle, so the error is the same for any thread count.
 struct QuickScan {
   bool good = true;
   double rmin = 0.0, rmax = 0.0;
 };
 
-QuickScan scanSpheres([[maybe_unused]] const SphereView& spheres, [[maybe_unused]] const Box& box,
-                      [[maybe_unused]] int threads) {
+QuickScan scanSpheres(const SphereView& spheres, const Box& box, [[maybe_unused]] int threads) {
   QuickScan q;
-#if POLYDEM_WITH_OPENMP
   const Index n = spheres.count();
-  q.rmin = spheres.radius[0];
-  q.rmax = q.rmin;
+  if (n == 0) return q;
+  double limit[3];  // x_k < limit_k: L on periodic axes, the next double above L on walled ones
+  for (int k = 0; k < 3; ++k) {
+    limit[k] = box.periodic(k) ? box.length(k) : std::nextafter(box.length(k), std::numeric_limits<double>::infinity());
+  }
+  const double* r = spheres.radius.data();
+  const double* x = spheres.centre.data();
+  const double inf = std::numeric_limits<double>::infinity();
   bool good = true;
-  double rmin = q.rmin, rmax = q.rmax;
+  double rmin = r[0], rmax = r[0];
+#if POLYDEM_WITH_OPENMP
 #pragma omp parallel for num_threads(threads) schedule(static) reduction(&& : good) reduction(min : rmin) \
-    reduction(max : rmax)
+    reduction(max : rmax) if (parallel::usable(threads) > 1 && n >= 4096)
+#endif
   for (Index i = 0; i < n; ++i) {
-    const double r = spheres.radius[i];
-    const Eigen::Vector3d x = spheres.centre.col(i);
-    good = good && std::isfinite(r) && r > 0.0 && x.allFinite() && box.contains(x);
-    rmin = std::min(rmin, r);
-    rmax = std::max(rmax, r);
+    const double* c = x + 3 * i;
+    const bool ok = (r[i] > 0.0) & (r[i] < inf) & (c[0] >= 0.0) & (c[0] < limit[0]) & (c[1] >= 0.0) &
+                    (c[1] < limit[1]) & (c[2] >= 0.0) & (c[2] < limit[2]);
+    good = good && ok;
+    rmin = std::min(rmin, r[i]);
+    rmax = std::max(rmax, r[i]);
   }
   q.good = good;
   q.rmin = rmin;
   q.rmax = rmax;
-#endif
   return q;
 }
 
@@ -58,7 +67,7 @@ std::pair<double, double> validateSpheres(const SphereView& spheres, const Box& 
   double rmin = n > 0 ? spheres.radius[0] : 0.0;
   double rmax = rmin;
   bool scanned = false;
-  if (parallel::usable(threads) > 1 && n >= 4096) {
+  if (spheres.centre.outerStride() == 3) {
     const QuickScan q = scanSpheres(spheres, box, threads);
     if (q.good) {
       rmin = q.rmin;

@@ -35,12 +35,6 @@ CellRange searchBox(const Eigen::Vector3d& x, double beta, const Eigen::Vector3d
   return r;
 }
 
-int insertionLevel(std::span<const double> sizes, double radius, double skin) {
-  const double diameter = 2.0 * radius + skin;  // the same expression as defaultConfig's top level
-  const auto it = std::lower_bound(sizes.begin(), sizes.end(), diameter);
-  return it == sizes.end() ? 0 : static_cast<int>(it - sizes.begin()) + 1;
-}
-
 HGridConfig defaultConfig(double minRadius, double maxRadius, double skin, CrossLevel mode) {
   HGridConfig c;
   c.mode = mode;
@@ -243,9 +237,15 @@ void HGrid<kMode>::index(const SphereView& spheres) {
     // Slots in cell order, then the packed copy laid out in that order.
     const hgrid::CellStore::Sorted order = store_.addLevel(lv, lv.n, lv.nx, lv.nxy);
     parallel::forEachRange(threads, m, levelParts, [&](std::size_t lo, std::size_t hi) {
+      constexpr std::size_t kAhead = 16;
       for (std::size_t t = lo; t < hi; ++t) {
         const std::size_t slot = b + t;
         const Index i = order.sphere[t];
+        if (t + kAhead < hi) {
+          const Index ahead = order.sphere[t + kAhead];
+          __builtin_prefetch(spheres.centre.col(ahead).data());
+          __builtin_prefetch(spheres.radius.data() + ahead);
+        }
         sorted_[slot] = i;
         slotOf_[static_cast<std::size_t>(i)] = static_cast<Index>(slot);
         homeKey_[static_cast<std::size_t>(i)] = order.key[t];

@@ -103,8 +103,16 @@ inline double searchHalfWidth(double radius, double skin, double nominalSize) {
 /// Cells floor((x_k -+ beta) / cellSize_k) -+ 1e-9 of the search box for a sphere at x (eq. 2.12).
 CellRange searchBox(const Eigen::Vector3d& x, double beta, const Eigen::Vector3d& cellSize);
 
-/// Level of insertion (1-based) of a sphere: first h with sizes[h-1] >= 2 r + skin; 0 if none.
-int insertionLevel(std::span<const double> sizes, double radius, double skin);
+/// Level of insertion (1-based) of a sphere: first h with sizes[h-1] >= 2 r + skin; 0 if none. The
+/// sizes ascend, so that is one more than the number of sizes below 2 r + skin (std::lower_bound's
+/// position), counted without branches: radii come in no order, and a binary search's branches
+/// mispredicted (9% of an HGrid build).
+inline int insertionLevel(std::span<const double> sizes, double radius, double skin) {
+  const double diameter = 2.0 * radius + skin;  // the same expression as defaultConfig's top level
+  std::size_t below = 0;
+  for (const double s : sizes) below += static_cast<std::size_t>(s < diameter);
+  return below == sizes.size() ? 0 : static_cast<int>(below) + 1;
+}
 
 /// Default sizes: s_1 = 2 r_min + skin doubled until >= 2 r_max + skin, the last set to exactly that.
 HGridConfig defaultConfig(double minRadius, double maxRadius, double skin, CrossLevel mode);

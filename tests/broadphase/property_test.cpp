@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "broadphase/brute_force.hpp"
@@ -255,6 +256,60 @@ TEST_P(BackendProperty, RejectsBadInput) {
   s.radius[1] = 1.0;
   EXPECT_THROW(bp->build(s.spheres(), s.box, -0.1), ConfigError);
   EXPECT_NO_THROW(bp->build(s.spheres(), s.box, 0.1));
+}
+
+// The input scan runs without branches first and names the particle only when something is bad; at the
+// edges of the valid ranges it must answer as the per-particle checks do (messages name the particle).
+TEST_P(BackendProperty, RejectsBadInputAtTheEdgesOfTheValidRanges) {
+  const std::string backend = GetParam();
+  const double inf = std::numeric_limits<double>::infinity();
+  struct Edge {
+    int axis;  // -1: the radius
+    double value;
+    bool walls;  // the axis is walled (else periodic)
+    bool valid;
+  };
+  const std::vector<Edge> edges = {
+      {-1, 0.0, false, false},
+      {-1, inf, false, false},
+      {-1, std::nan(""), false, false},
+      {-1, 0.01, false, true},
+      {0, 10.0, false, false},
+      {0, 10.0, true, true},
+      {0, std::nextafter(10.0, 11.0), true, false},
+      {1, -0.0, false, true},
+      {1, -1e-300, false, false},
+      {2, inf, true, false},
+      {2, -inf, false, false},
+      {2, std::nextafter(10.0, 0.0), false, true},
+  };
+  for (const Edge& e : edges) {
+    SCOPED_TRACE(::testing::Message() << "axis " << e.axis << " value " << e.value
+                                      << (e.walls ? " walls" : " periodic"));
+    test::Scene s;
+    s.box = Box({10.0, 10.0, 10.0}, {e.walls ? Boundary::Wall : Boundary::Periodic, Boundary::Periodic,
+                                     e.walls ? Boundary::Wall : Boundary::Periodic});
+    s.centre = Eigen::Matrix3Xd::Constant(3, 3, 5.0);
+    s.centre(0, 0) = 1.0;
+    s.centre(0, 2) = 9.0;
+    s.radius = Eigen::VectorXd::Constant(3, 0.5);
+    if (e.axis < 0) {
+      s.radius[1] = e.value;
+    } else {
+      s.centre(e.axis, 1) = e.value;
+    }
+    auto bp = broadphase::makeBroadPhase(backend);
+    if (e.valid) {
+      EXPECT_NO_THROW(bp->build(s.spheres(), s.box, 0.0));
+    } else {
+      try {
+        bp->build(s.spheres(), s.box, 0.0);
+        ADD_FAILURE() << "accepted";
+      } catch (const ConfigError& error) {
+        EXPECT_NE(std::string(error.what()).find("particle 1"), std::string::npos) << error.what();
+      }
+    }
+  }
 }
 
 // Threads (BroadPhase::setThreads): the threaded grid builds and searches report the serial pairs in the
