@@ -120,6 +120,11 @@ HGridConfig defaultConfig(double minRadius, double maxRadius, double skin, Cross
 /// Throws ConfigError unless the sizes are non-empty, positive, finite and strictly increasing.
 void validateCellSizes(std::span<const double> sizes, std::string_view origin);
 
+/// The half shell as 5 runs of cells along x, in the order of kHalfShell: (first offset, length). Runs of
+/// consecutive keys are one contiguous slot range on dense and ranked levels, so an interior cell looks up
+/// 5 ranges instead of 13 cells.
+inline constexpr std::array<std::array<int, 2>, 5> kHalfShellRuns = {{{0, 1}, {1, 3}, {4, 3}, {7, 3}, {10, 3}}};
+
 /// The 13 forward offsets (dx, dy, dz) of the half shell, in the order linked_cell.cpp uses.
 inline constexpr std::array<std::array<int, 3>, 13> kHalfShell = [] {
   std::array<std::array<int, 3>, 13> shell{};
