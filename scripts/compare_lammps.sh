@@ -4,11 +4,18 @@
 # CI: LAMMPS is not a build dependency (not in scripts/setup.sh). Install it once with
 #   DEBIAN_FRONTEND=noninteractive apt-get install -y lammps
 #
-#   scripts/compare_lammps.sh [SCENE ...]      SCENE: mono uv20 uv50 uv20c uv50c (default: mono uv20 uv50)
+#   scripts/compare_lammps.sh [SCENE ...]      SCENE: one of the list below, or "issue18" for the eight
+#                                              scenes of issue 18 (default: mono uv20 uv50)
 #
-#   mono   monodisperse, RSA at 0.3, soft compression to packing fraction 0.6 (RSA cannot reach 0.6)
-#   uv20   uniform volume f(r) ~ r^-3, omega = 20, RSA directly at 0.6 (non-overlapping start)
-#   uv50   the same with omega = 50
+#   mono     monodisperse, RSA at 0.3, soft compression to packing fraction 0.6 (RSA cannot reach 0.6)
+#   mono30   monodisperse, RSA at 0.3 as it is
+#   bi10     bidisperse omega = 10, equal volumes of both species, RSA at 0.3 softly compressed to 0.6
+#   bi10_30  the same at 0.3 as placed
+#   uv10     uniform volume f(r) ~ r^-3 (power law, exponent -3), omega = 10, RSA directly at 0.6
+#   uv10_30  the same at 0.3
+#   uv20     uniform volume f(r) ~ r^-3, omega = 20, RSA directly at 0.6 (non-overlapping start)
+#   uv20_30  the same at 0.3
+#   uv50     the same with omega = 50
 #   uv20c  uv20 from RSA at 0.5 softly compressed to 0.6 (starts with the small overlaps it leaves)
 #   uv50c  uv50 likewise
 #
@@ -53,8 +60,10 @@ with_lammps="${LAMMPS:-1}"
 [ -x "$polydem" ] || { echo "compare_lammps: $polydem not found: build polydem or set POLYDEM_BUILD" >&2; exit 1; }
 [ "$with_lammps" = 0 ] || command -v "$lmp" > /dev/null || {
   echo "compare_lammps: '$lmp' not found: DEBIAN_FRONTEND=noninteractive apt-get install -y lammps" >&2; exit 1; }
+all_scenes="mono mono30 bi10 bi10_30 uv10 uv10_30 uv20 uv20_30 uv50 uv20c uv50c"
 scenes=("$@")
 [ ${#scenes[@]} -gt 0 ] || scenes=(mono uv20 uv50)
+[ "${scenes[*]}" = issue18 ] && scenes=(mono mono30 bi10 bi10_30 uv10 uv10_30 uv20 uv20_30)
 mkdir -p "$work" "$(dirname "$out")"
 export OMP_NUM_THREADS=1  # LAMMPS: one thread, one MPI rank (the Debian binary is MPI-built: singleton)
 # polydem's thread count comes from --threads. Its threads wait passively (OMP_WAIT_POLICY=passive unless
@@ -76,14 +85,23 @@ prepare() {
   case "$scene" in
     mono)  sets=(--set particles.distribution='"mono"' --set particles.packing_fraction=0.3
                  --set compression.packing_fraction=0.6) ;;
-    uv20|uv50)
+    mono30) sets=(--set particles.distribution='"mono"' --set particles.packing_fraction=0.3) ;;
+    bi10)  sets=(--set particles.distribution='"bi"' --set particles.omega=10 --set particles.packing_fraction=0.3
+                 --set compression.packing_fraction=0.6) ;;
+    bi10_30)
+           sets=(--set particles.distribution='"bi"' --set particles.omega=10 --set particles.packing_fraction=0.3) ;;
+    uv10|uv20|uv50)
            sets=(--set particles.distribution='"uniform-volume"' --set particles.omega="${scene#uv}"
                  --set particles.packing_fraction=0.6) ;;
+    uv10_30|uv20_30)
+           local w="${scene#uv}"; w="${w%_30}"
+           sets=(--set particles.distribution='"uniform-volume"' --set particles.omega="$w"
+                 --set particles.packing_fraction=0.3) ;;
     uv20c|uv50c)
            local om="${scene#uv}"; om="${om%c}"
            sets=(--set particles.distribution='"uniform-volume"' --set particles.omega="$om"
                  --set particles.packing_fraction=0.5 --set compression.packing_fraction=0.6) ;;
-    *) echo "compare_lammps: unknown scene '$scene' (mono uv20 uv50 uv20c uv50c)" >&2; exit 1 ;;
+    *) echo "compare_lammps: unknown scene '$scene' ($all_scenes)" >&2; exit 1 ;;
   esac
   start="$work/$scene/start.txt"
   mkdir -p "$work/$scene"
@@ -105,7 +123,7 @@ prepare() {
   dampcoeff=$(sed -n 's/.*dampcoeff=\([^ ]*\).*/\1/p' <<< "$info")
   gamman=$(sed -n 's/.*gamman=\([^ ]*\).*/\1/p' <<< "$info")
   case "$scene" in
-    mono) variants=("granular bin" "gran_hooke bin") ;;
+    mono|mono30) variants=("granular bin" "gran_hooke bin") ;;
     *)    variants=("granular multi" "granular bin") ;;
   esac
   echo "   dt = $dt s, skin = $skin m, LAMMPS damping $damping $dampcoeff, collections $collections"
@@ -209,7 +227,7 @@ med = {k: statistics.median(float(r["us_per_particle_step"]) for r in v) for k, 
 with open(out, "w") as f:
     f.write("scene,code,variant,threads,runs,median_us_per_particle_step,min_us,max_us,"
             "lammps_over_polydem_1thread,speedup_over_1thread,median_load1\n")
-    print(f"\n{'scene':6} {'code':8} {'variant':28} {'thr':>3} {'median us/p/step':>17} {'LAMMPS/polydem':>15} {'speed-up':>9}")
+    print(f"\n{'scene':8} {'code':8} {'variant':28} {'thr':>3} {'median us/p/step':>17} {'LAMMPS/polydem':>15} {'speed-up':>9}")
     for key in groups:
         scene, code, variant, threads = key
         v = [float(r["us_per_particle_step"]) for r in groups[key]]
@@ -222,7 +240,7 @@ with open(out, "w") as f:
                 f"{ratio if ratio == '' else f'{ratio:.3f}'},{speedup if speedup == '' else f'{speedup:.3f}'},{load}\n")
         r = "" if ratio == "" else f"{ratio:.2f}"
         su = "" if speedup == "" else f"{speedup:.2f}"
-        print(f"{scene:6} {code:8} {variant:28} {threads:>3} {med[key]:17.4f} {r:>15} {su:>9}")
+        print(f"{scene:8} {code:8} {variant:28} {threads:>3} {med[key]:17.4f} {r:>15} {su:>9}")
 print(f"\nsummary: {out}\nruns:    {runs}")
 EOF
 if [ "$with_lammps" = 0 ]; then rm -f "$physics_csv"; exit 0; fi
