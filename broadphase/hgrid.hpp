@@ -42,7 +42,7 @@
 // mono 1 : 1.1 : 1.55; uniform volume omega = 50 with optimised sizes, TD 1 : 1.3 : 2.9, BU
 // 1 : 1.4 : 1.7. The AABB pre-check of cross-level candidates (thesis §2.1.2) is off by default: its
 // three unpredictable comparisons cost more than the exact test they would save (measured 4 Dec 2026,
-// N = 2e5, one core, `auto`'s sizes: findPairs 11-22 % faster without it for uniform volume omega 10-100
+// N = 2e5, one core, `auto`'s sizes: findPairs 12-22 % faster without it for uniform volume omega 10-100
 // and power law -3 omega 20-100, at packing 0.3 and 0.6, skin 0 to 1 r_min; 4 % for bidisperse omega 10;
 // docs/benchmarks/broadphase_ratio/README.md). setAabbPrecheck(true) restores it.
 //
@@ -73,6 +73,7 @@
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "broadphase/half_shell.hpp"
 #include "broadphase/hgrid_config.hpp"
 #include "broadphase/hgrid_storage.hpp"
 #include "broadphase/pair_chunks.hpp"
@@ -120,21 +121,9 @@ HGridConfig defaultConfig(double minRadius, double maxRadius, double skin, Cross
 /// Throws ConfigError unless the sizes are non-empty, positive, finite and strictly increasing.
 void validateCellSizes(std::span<const double> sizes, std::string_view origin);
 
-/// The half shell as 5 runs of cells along x, in the order of kHalfShell: (first offset, length). Runs of
-/// consecutive keys are one contiguous slot range on dense and ranked levels, so an interior cell looks up
-/// 5 ranges instead of 13 cells.
-inline constexpr std::array<std::array<int, 2>, 5> kHalfShellRuns = {{{0, 1}, {1, 3}, {4, 3}, {7, 3}, {10, 3}}};
-
-/// The 13 forward offsets (dx, dy, dz) of the half shell, in the order linked_cell.cpp uses.
-inline constexpr std::array<std::array<int, 3>, 13> kHalfShell = [] {
-  std::array<std::array<int, 3>, 13> shell{};
-  int count = 0;
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx)
-        if (dz > 0 || (dz == 0 && dy > 0) || (dz == 0 && dy == 0 && dx > 0)) shell[count++] = {dx, dy, dz};
-  return shell;
-}();
+/// The half shell (half_shell.hpp), for the HGrid's files.
+using broadphase::kHalfShell;
+using broadphase::kHalfShellRuns;
 
 }  // namespace hgrid
 

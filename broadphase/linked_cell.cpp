@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "broadphase/hgrid.hpp"  // hgrid::kHalfShellRuns
+#include "broadphase/half_shell.hpp"
 #include "broadphase/pair_chunks.hpp"
 #include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
@@ -38,13 +38,8 @@ void LinkedCell::doBuild(const SphereView& spheres) {
     inverseCellSize_[k] = 1.0 / cellSize_[k];
     if (box_.periodic(k) && cells_[k] == 2) aliased_ = true;
   }
-  halfShell_.clear();
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx)
-        if (dz > 0 || (dz == 0 && dy > 0) || (dz == 0 && dy == 0 && dx > 0)) halfShell_.push_back({dx, dy, dz});
-  for (std::size_t o = 0; o < halfShell_.size(); ++o) {
-    const auto& d = halfShell_[o];
+  for (std::size_t o = 0; o < kHalfShell.size(); ++o) {
+    const auto& d = kHalfShell[o];
     shellDelta_[o] = d[0] + cells_[0] * (d[1] + cells_[1] * d[2]);
   }
 
@@ -184,16 +179,16 @@ void LinkedCell::pairsImpl(int cellBegin, int cellEnd, std::vector<Pair>& out) c
         cc[2] <= cells_[2] - 2) {
       // Interior cell: every forward neighbour exists unwrapped, at a fixed index offset (the same cells as
       // the general path below, pairs in another order).
-      // The 13 cells as 5 runs along x (hgrid::kHalfShellRuns), each one slot range.
+      // The 13 cells as 5 runs along x (kHalfShellRuns), each one slot range.
       if constexpr (kCount) accesses += 13;
-      for (const auto& run : hgrid::kHalfShellRuns) {
+      for (const auto& run : kHalfShellRuns) {
         const int first = c + shellDelta_[static_cast<std::size_t>(run[0])];
         const Index b0 = cellStart_[first], b1 = cellStart_[first + run[1]];
         if (b0 < b1) crossCells(a0, a1, b0, b1);
       }
       continue;
     }
-    for (const auto& o : halfShell_) {
+    for (const auto& o : kHalfShell) {
       int q[3];
       bool inside = true;
       for (int k = 0; k < 3; ++k) {

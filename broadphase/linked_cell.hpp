@@ -56,16 +56,15 @@ class LinkedCell final : public BroadPhase {
   std::array<int, 3> cells_{1, 1, 1};
   Eigen::Vector3d cellSize_ = Eigen::Vector3d::Ones();
   Eigen::Vector3d inverseCellSize_ = Eigen::Vector3d::Ones();
-  bool aliased_ = false;                       // some periodic axis has 2 cells: use the de-duplicating path
-  std::vector<std::array<int, 3>> halfShell_;  // forward offsets
-  std::array<int, 13> shellDelta_{};           // their cell-index offsets, for cells off the boundary
-  std::vector<Index> cellStart_;               // size cells + 1
-  std::vector<Index> sorted_;                  // particle index per slot
-  std::vector<Index> slotOf_;                  // slot per particle
-  std::vector<int> cellOf_;                    // cell per particle
-  std::vector<Index> fill_;                    // build scratch: next free slot per cell (per part when threaded)
-  mutable PairChunks chunks_;                  // findPairs() with threads: the chunks before concatenation
-  Eigen::Matrix4Xd packed_;                    // x, y, z, r per slot
+  bool aliased_ = false;              // some periodic axis has 2 cells: use the de-duplicating path
+  std::array<int, 13> shellDelta_{};  // cell-index offsets of kHalfShell, for cells off the boundary
+  std::vector<Index> cellStart_;      // size cells + 1
+  std::vector<Index> sorted_;         // particle index per slot
+  std::vector<Index> slotOf_;         // slot per particle
+  std::vector<int> cellOf_;           // cell per particle
+  std::vector<Index> fill_;           // build scratch: next free slot per cell (per part when threaded)
+  mutable PairChunks chunks_;         // findPairs() with threads: the chunks before concatenation
+  Eigen::Matrix4Xd packed_;           // x, y, z, r per slot
 };
 
 }  // namespace polydem::broadphase

@@ -1,0 +1,218 @@
+#!/usr/bin/python3
+"""Where the DEM step's time goes against this machine's memory bandwidth (issue 18).
+
+Runs `polydem relax examples/relax_uv10.toml` (frictionless, linear spring-dashpot, one thread) for each scene
+and particle count, and `polydem_stream_copy` (a STREAM-like copy) in the same run, before and after the
+relax runs, with arrays far above the last-level cache (DRAM) and with arrays that fit in it (L3). For each
+phase of the step it divides the phase's *compulsory* traffic (every array the phase must read or write once
+per step, counted as STREAM counts: bytes read plus bytes written, no write-allocate) by the phase's measured
+time, and compares that with the copy bandwidth of the memory level the run's data live in. A phase at 100%
+is bandwidth-bound; at 10% it is bound by something else (arithmetic, latency, branches) and the headroom
+column says how much faster it would be if only its compulsory traffic limited it.
+
+The traffic model (frictionless, no rotation, the restitution dashpot with the predicted velocity, the
+joined kick of DemSimulation, double = 8 bytes, Index = 4 bytes; c = candidate pairs per particle in the
+Verlet list, k = steps per rebuild):
+  integration  opening pass (previous closing half kick + opening half kick + drift + displacement check):
+               reads v, F, 1/m, x, x_ref (104 B), writes v, x, v_pred (72 B): 176 B/particle-step.
+  force        reads x, r, 1/m, v_pred (64 B), the row offset and c neighbour indices (4 + 4 c B), writes F
+               (24 B): 92 + 4 c B/particle-step.
+  broad phase  per rebuild: the grid build reads x, r (32 B), writes and reads a packed copy (64 B), the
+               cell index and slot arrays (16 B); the search writes 8 B per candidate, the Verlet fill reads the
+               candidates twice and writes 4 B each (28 B per candidate) and the row offsets (8 B); the build
+               copies x and r as the reference (64 B): 184 + 28 c B per rebuild, divided by k.
+The model counts each array once per step; real kernels move more (neighbours' data read once per pair
+when it left the cache, write-allocate), so the fractions are lower bounds of the bandwidth the phases use.
+
+Usage: /usr/bin/python3 scripts/dem_limits_report.py [--polydem build/apps/polydem]
+       [--stream build/benchmarks/polydem_stream_copy] [--out docs/benchmarks/dem_limits] [--rounds 3]
+       [--counts 50000,1000000] [--scenes mono,uv10]
+Writes OUT/runs.csv (every run), OUT/summary.csv and OUT/README.md (tables, machine, command).
+"""
+import argparse
+import csv
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+
+SCENES = {
+    # name: (settings, description)
+    "mono": (['particles.distribution="mono"', "particles.packing_fraction=0.3"],
+             "equal spheres, RSA at packing 0.3"),
+    "uv10": ([], "uniform volume f(r) ~ r^-3, omega 10, RSA at packing 0.6 (the example scene)"),
+    "uv50": (["particles.omega=50"], "uniform volume, omega 50, RSA at packing 0.6"),
+}
+
+
+NOTES_MARKER = "<!-- notes: kept when the report is made again -->"
+
+
+def cpu_model():
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def steps_for(count):
+    """Steps per run: about 10^8 particle-steps, at least 100."""
+    return max(100, min(3000, int(1e8 / count)))
+
+
+def run_stream(stream, mib, repeat):
+    with tempfile.NamedTemporaryFile(suffix=".json") as f:
+        subprocess.run([stream, "--mib", str(mib), "--repeat", str(repeat), "--json", f.name], check=True,
+                       stdout=subprocess.DEVNULL)
+        return json.load(open(f.name))["median_gb_per_s"]
+
+
+def run_relax(polydem, root, scene, count, steps, cpu):
+    sets = SCENES[scene][0] + [f"particles.count={count}"]
+    with tempfile.TemporaryDirectory() as tmp:
+        summary = os.path.join(tmp, "s.json")
+        cmd = ["taskset", "-c", str(cpu), polydem, "relax", os.path.join(root, "examples/relax_uv10.toml"), "-q",
+               "--threads", "1", "--steps", str(steps), "--summary-json", summary,
+               "--set", f'output.final="{os.path.join(tmp, "final.txt")}"',
+               "--set", f'output.timeseries="{os.path.join(tmp, "series.csv")}"']
+        for s in sets:
+            cmd += ["--set", s]
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, cwd=tmp)
+        return json.load(open(summary))["report"]
+
+
+def traffic(c, k):
+    """Compulsory bytes per particle-step per phase (see the module docstring)."""
+    return {"integration": 176.0, "force": 92.0 + 4.0 * c, "broad_phase": (184.0 + 28.0 * c) / k}
+
+
+def main():
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--polydem", default=os.path.join(root, "build/apps/polydem"))
+    ap.add_argument("--stream", default=os.path.join(root, "build/benchmarks/polydem_stream_copy"))
+    ap.add_argument("--out", default=os.path.join(root, "docs/benchmarks/dem_limits"))
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--counts", default="50000,1000000")
+    ap.add_argument("--scenes", default="mono,uv10")
+    ap.add_argument("--cpu", type=int, default=1)
+    a = ap.parse_args()
+    for exe in (a.polydem, a.stream):
+        if not os.access(exe, os.X_OK):
+            sys.exit(f"dem_limits_report: {exe} is not an executable (build it first: scripts/build.sh)")
+    try:
+        counts = [int(x) for x in a.counts.split(",")]
+    except ValueError:
+        sys.exit(f"dem_limits_report: --counts must be comma-separated integers, got '{a.counts}'")
+    scenes = a.scenes.split(",")
+    for s in scenes:
+        if s not in SCENES:
+            sys.exit(f"dem_limits_report: unknown scene '{s}' (known: {', '.join(SCENES)})")
+    if a.rounds < 1 or any(n < 1000 for n in counts):
+        sys.exit("dem_limits_report: --rounds must be >= 1 and every count >= 1000")
+    os.makedirs(a.out, exist_ok=True)
+
+    rows = []
+    stream = {"dram": [], "l3": []}
+    for r in range(1, a.rounds + 1):
+        stream["dram"].append(run_stream(a.stream, 512, 10))
+        stream["l3"].append(run_stream(a.stream, 4, 50))
+        for scene in scenes:
+            for n in counts:
+                steps = steps_for(n)
+                rep = run_relax(a.polydem, root, scene, n, steps, a.cpu)
+                t = rep["time"]
+                ps = float(n) * rep["steps_run"]
+                rows.append({
+                    "round": r, "scene": scene, "particles": n, "steps": rep["steps_run"],
+                    "loop_us": 1e6 * t["loop_seconds"] / ps,
+                    "broad_phase_us": 1e6 * t["broad_phase_seconds"] / ps,
+                    "force_us": 1e6 * t["force_seconds"] / ps,
+                    "integration_us": 1e6 * t["integration_seconds"] / ps,
+                    "candidates_per_particle": rep["neighbours"]["candidate_pairs"] / n,
+                    "contacts_per_particle": rep["contacts"] / n,
+                    "steps_per_rebuild": rep["steps_run"] / max(1, rep["neighbours"]["rebuilds"]),
+                    "bytes_held": rep["memory"]["bytes_held"],
+                })
+                print(f"round {r} {scene} N={n}: {rows[-1]['loop_us']:.4f} us/particle-step", flush=True)
+        stream["dram"].append(run_stream(a.stream, 512, 10))
+        stream["l3"].append(run_stream(a.stream, 4, 50))
+
+    with open(os.path.join(a.out, "runs.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    dram = statistics.median(stream["dram"])
+    l3 = statistics.median(stream["l3"])
+    l3_bytes = 16 * 2**20  # a run whose data exceed half the 32 MiB L3 streams from DRAM
+
+    summary = []
+    for scene in scenes:
+        for n in counts:
+            rs = [x for x in rows if x["scene"] == scene and x["particles"] == n]
+            med = {k: statistics.median(x[k] for x in rs) for k in rs[0] if k not in ("round", "scene")}
+            level, bw = ("L3", l3) if med["bytes_held"] < l3_bytes else ("DRAM", dram)
+            bytes_ = traffic(med["candidates_per_particle"], med["steps_per_rebuild"])
+            for phase in ("broad_phase", "force", "integration"):
+                us = med[f"{phase}_us"]
+                gbs = bytes_[phase] / (us * 1e3) if us > 0 else float("nan")
+                summary.append({
+                    "scene": scene, "particles": n, "phase": phase, "us_per_particle_step": us,
+                    "compulsory_bytes": bytes_[phase], "gb_per_s": gbs, "level": level, "stream_gb_per_s": bw,
+                    "fraction_of_stream": gbs / bw, "headroom": bw / gbs,
+                    "candidates_per_contact": med["candidates_per_particle"] / max(1e-12, med["contacts_per_particle"]),
+                    "loop_us": med["loop_us"], "bytes_held_per_particle": med["bytes_held"] / n,
+                })
+    with open(os.path.join(a.out, "summary.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(summary[0].keys()))
+        w.writeheader()
+        for s in summary:
+            w.writerow({k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in s.items()})
+
+    cmd = "/usr/bin/python3 scripts/dem_limits_report.py " + " ".join(sys.argv[1:])
+    readme = os.path.join(a.out, "README.md")
+    notes = ""  # hand-written reading of an earlier report, kept below the marker
+    if os.path.exists(readme):
+        old = open(readme).read()
+        if NOTES_MARKER in old:
+            notes = old[old.index(NOTES_MARKER):]
+    with open(readme, "w") as f:
+        f.write("# The DEM step against this machine's memory bandwidth\n\n")
+        f.write(f"Command: `{cmd}` ({a.rounds} rounds; every run in [runs.csv](runs.csv), the table in "
+                "[summary.csv](summary.csv)). Machine: " + cpu_model() +
+                f", {os.cpu_count()} CPUs; one thread pinned to CPU {a.cpu}.\n\n")
+        f.write(f"STREAM-like copy (`polydem_stream_copy`, medians of {2 * a.rounds} calls around the runs): "
+                f"DRAM (2 x 512 MiB) **{dram:.1f} GB/s**, L3-resident (2 x 4 MiB) **{l3:.1f} GB/s**. A run whose "
+                "data (`bytes held`) fit in half the 32 MiB L3 is compared with the L3 figure, a larger one with "
+                "DRAM.\n\n")
+        f.write("The traffic model is in the script's header: the bytes each phase must move per particle "
+                "and step if it touched every array once. `achieved` = those bytes / the phase's time; "
+                "`headroom` = how much faster the phase would be if that traffic at the copy bandwidth were its only "
+                "limit.\n\n")
+        f.write("| scene | N | phase | us/particle-step | compulsory B | achieved GB/s | level | % of copy | headroom |\n")
+        f.write("| --- | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |\n")
+        for s in summary:
+            f.write(f"| {s['scene']} | {s['particles']} | {s['phase']} | {s['us_per_particle_step']:.4f} | "
+                    f"{s['compulsory_bytes']:.0f} | {s['gb_per_s']:.1f} | {s['level']} | "
+                    f"{100 * s['fraction_of_stream']:.0f}% | {s['headroom']:.1f}x |\n")
+        f.write("\n| scene | N | loop us/particle-step | Verlet candidates per contact | bytes held per particle |\n")
+        f.write("| --- | ---: | ---: | ---: | ---: |\n")
+        for s in summary:
+            if s["phase"] != "force":
+                continue
+            f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['candidates_per_contact']:.2f} | "
+                    f"{s['bytes_held_per_particle']:.0f} |\n")
+        f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".\n")
+        if notes:
+            f.write("\n" + notes)
+    print(f"wrote {a.out}/README.md, summary.csv, runs.csv")
+
+
+if __name__ == "__main__":
+    main()
