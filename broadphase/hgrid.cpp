@@ -192,24 +192,22 @@ void HGrid<kMode>::index(const SphereView& spheres) {
       level_[i] = static_cast<std::uint16_t>(h);
     }
   });
+  // Grouped straight into the store's per-slot sphere buffer, which each level's key pass reads.
+  store_.reset(un);
   levelCount_.resize(levelCount + 1);
-  byLevel_.resize(un);
+  Index* const grouped = store_.spheres();
   parallel::stableCountingSort(
       threads, un, levelCount, 0, [&](std::size_t i) { return level_[i]; }, levelCount_.data(), sortScratch_,
-      [&](std::size_t i, Index pos) { byLevel_[static_cast<std::size_t>(pos)] = static_cast<Index>(i); });
+      [&](std::size_t i, Index pos) { grouped[static_cast<std::size_t>(pos)] = static_cast<Index>(i); });
   for (std::size_t h = 0; h < levelCount; ++h) {
     levels_[h].begin = levelCount_[h];
     levels_[h].end = levelCount_[h + 1];
   }
 
   sorted_.resize(un);
-  slotOf_.resize(un);
-  homeKey_.resize(un);
   packed_.resize(4 * un);
-  store_.reset(un);
   overflow_.clear();
-  overflowPos_.assign(un, -1);
-  overflowNext_.assign(un, -1);
+  updateReady_ = false;  // the per-sphere state of update() is made by its first call (prepareUpdate)
   occupied_.clear();
 
   for (std::size_t h = 0; h < levelCount; ++h) {
@@ -228,11 +226,8 @@ void HGrid<kMode>::index(const SphereView& spheres) {
     const std::size_t m = static_cast<std::size_t>(lv.end - lv.begin);
     const std::size_t levelParts = parallel::chunkCount(threads, m);
     parallel::forEachRange(threads, m, levelParts, [&](std::size_t lo, std::size_t hi) {
-      for (std::size_t slot = b + lo; slot < b + hi; ++slot) {
-        const Index i = byLevel_[slot];
-        key[slot] = keyOf(lv, spheres.centre.col(i).data());
-        sphere[slot] = i;
-      }
+      for (std::size_t slot = b + lo; slot < b + hi; ++slot)
+        key[slot] = keyOf(lv, spheres.centre.col(sphere[slot]).data());
     });
     // Slots in cell order, then the packed copy laid out in that order.
     const hgrid::CellStore::Sorted order = store_.addLevel(lv, lv.n, lv.nx, lv.nxy);
@@ -247,8 +242,6 @@ void HGrid<kMode>::index(const SphereView& spheres) {
           __builtin_prefetch(spheres.radius.data() + ahead);
         }
         sorted_[slot] = i;
-        slotOf_[static_cast<std::size_t>(i)] = static_cast<Index>(slot);
-        homeKey_[static_cast<std::size_t>(i)] = order.key[t];
         double* p = packed_.data() + 4 * slot;
         p[0] = spheres.centre(0, i);
         p[1] = spheres.centre(1, i);
@@ -262,6 +255,30 @@ void HGrid<kMode>::index(const SphereView& spheres) {
 
 // ---------------------------------------------------------------------------------------------------
 // Incremental update
+
+template <CrossLevel kMode>
+void HGrid<kMode>::homes(std::vector<Index>& slotOf, std::vector<std::uint64_t>& homeKey) const {
+  slotOf.resize(sorted_.size());
+  homeKey.resize(sorted_.size());
+  for (const hgrid::OccupiedCell& cell : store_.cells()) {
+    for (Index s = cell.begin; s < cell.end; ++s) {
+      const Index i = sorted_[static_cast<std::size_t>(s)];
+      if (i < 0) continue;  // a tombstone (update() moved its sphere to the overflow)
+      slotOf[static_cast<std::size_t>(i)] = s;
+      homeKey[static_cast<std::size_t>(i)] = cell.key;
+    }
+  }
+}
+
+template <CrossLevel kMode>
+void HGrid<kMode>::prepareUpdate() {
+  // Only update() needs these (16 bytes per sphere and two random writes per sphere in every build), so a
+  // DEM run, which only rebuilds, never pays for them. The buffers keep their capacity across builds.
+  homes(slotOf_, homeKey_);
+  overflowPos_.assign(sorted_.size(), -1);
+  overflowNext_.assign(sorted_.size(), -1);
+  updateReady_ = true;
+}
 
 template <CrossLevel kMode>
 Index* HGrid<kMode>::overflowHeadSlot(Level& lv, std::uint64_t key) {
@@ -327,10 +344,11 @@ void HGrid<kMode>::overflowRemove(Level& lv, Index sphere) {
 template <CrossLevel kMode>
 void HGrid<kMode>::doUpdate(const SphereView& spheres, std::span<const Index> moved) {
   const Index n = spheres.count();
-  if (n != static_cast<Index>(slotOf_.size())) {
+  if (n != static_cast<Index>(level_.size())) {
     throw ConfigError(
-        fmt::format("hgrid update: {} spheres, but the index was built for {}: call build()", n, slotOf_.size()));
+        fmt::format("hgrid update: {} spheres, but the index was built for {}: call build()", n, level_.size()));
   }
+  if (!updateReady_) prepareUpdate();
   const double nan = std::numeric_limits<double>::quiet_NaN();
   for (Index i : moved) {
     if (i < 0 || i >= n) throw ConfigError(fmt::format("hgrid update: particle {} out of range [0, {})", i, n));
@@ -401,9 +419,9 @@ std::size_t HGrid<kMode>::memoryBytes() const {
                       slotOf_.capacity() * sizeof(Index) + level_.capacity() * sizeof(std::uint16_t) +
                       homeKey_.capacity() * sizeof(std::uint64_t) + overflow_.capacity() * sizeof(OverflowRecord) +
                       overflowPos_.capacity() * sizeof(Index) + overflowNext_.capacity() * sizeof(Index) +
-                      levelCount_.capacity() * sizeof(Index) + byLevel_.capacity() * sizeof(Index) +
-                      sortScratch_.capacity() * sizeof(Index) + tasks_.capacity() * sizeof(SearchTask) +
-                      chunks_.memoryBytes() + levelCounters_.capacity() * sizeof(Counters);
+                      levelCount_.capacity() * sizeof(Index) + sortScratch_.capacity() * sizeof(Index) +
+                      tasks_.capacity() * sizeof(SearchTask) + chunks_.memoryBytes() +
+                      levelCounters_.capacity() * sizeof(Counters);
   for (const Level& lv : levels_) bytes += lv.overflowTable.capacity() * sizeof(OverflowEntry);
   return bytes;
 }
@@ -437,7 +455,14 @@ void HGrid<kMode>::validate(const SphereView& spheres) const {
   auto fail = [&](const std::string& what) { throw std::logic_error(fmt::format("{}: {}", name(), what)); };
   const Index n = spheres.count();
   const std::size_t un = static_cast<std::size_t>(n);
-  if (slotOf_.size() != un || sorted_.size() != un || packed_.size() != 4 * un) fail("storage size differs from N");
+  if (level_.size() != un || sorted_.size() != un || packed_.size() != 4 * un) fail("storage size differs from N");
+  // Before the first update() after a build there is no overflow and the homes follow from the cells.
+  std::vector<Index> slotOfBuilt;
+  std::vector<std::uint64_t> homeKeyBuilt;
+  if (!updateReady_) homes(slotOfBuilt, homeKeyBuilt);
+  const std::vector<Index>& slotOf = updateReady_ ? slotOf_ : slotOfBuilt;
+  const std::vector<std::uint64_t>& homeKey = updateReady_ ? homeKey_ : homeKeyBuilt;
+  auto overflowAt = [&](std::size_t i) { return updateReady_ ? overflowPos_[i] : Index{-1}; };
   if (levels_.size() != config_.cellSizes.size()) fail("level count differs from the configuration");
   const std::span<const double> sizes(config_.cellSizes);
   for (Index i = 0; i < n; ++i) {
@@ -446,14 +471,14 @@ void HGrid<kMode>::validate(const SphereView& spheres) const {
       fail(fmt::format("particle {} on the wrong level", i));
     }
     const Level& lv = levels_[level_[ui]];
-    const Index slot = slotOf_[ui];
+    const Index slot = slotOf[ui];
     if (slot < lv.begin || slot >= lv.end) fail(fmt::format("particle {}: home slot outside its level", i));
     const std::uint64_t key = keyOf(lv, spheres.centre.col(i).data());
     const double* pk = packed_.data() + 4 * static_cast<std::size_t>(slot);
     if (pk[3] != spheres.radius[i]) fail(fmt::format("particle {}: packed radius is stale", i));
-    if (overflowPos_[ui] < 0) {
+    if (overflowAt(ui) < 0) {
       if (sorted_[static_cast<std::size_t>(slot)] != i) fail(fmt::format("particle {}: slot is stale", i));
-      if (homeKey_[ui] != key) fail(fmt::format("particle {} stored in the wrong cell", i));
+      if (homeKey[ui] != key) fail(fmt::format("particle {} stored in the wrong cell", i));
       for (int k = 0; k < 3; ++k) {
         if (pk[k] != spheres.centre(k, i)) fail(fmt::format("particle {}: packed centre is stale", i));
       }
@@ -489,7 +514,7 @@ void HGrid<kMode>::validate(const SphereView& spheres) const {
       if (c > lv.cellBegin && !(cells[c - 1].key < cell.key)) fail(fmt::format("level {}: cells not sorted", h + 1));
       for (Index s = cell.begin; s < cell.end; ++s) {
         const Index i = sorted_[static_cast<std::size_t>(s)];
-        if (i >= 0 && homeKey_[static_cast<std::size_t>(i)] != cell.key) {
+        if (i >= 0 && homeKey[static_cast<std::size_t>(i)] != cell.key) {
           fail(fmt::format("level {}: slot {} in the wrong cell range", h + 1, s));
         }
       }

@@ -57,7 +57,9 @@
 // update(): O(|moved|). A sphere that stays in its cell refreshes its packed copy; one that changes
 // cell leaves a tombstone (NaN coordinates) in its slot and moves to a per-level overflow hash of
 // linked lists, which findPairs / findNeighbours search like any level. The index is rebuilt when the
-// overflow holds more than max(64, N / 8) spheres, so a cell change costs O(1) amortised.
+// overflow holds more than max(64, N / 8) spheres, so a cell change costs O(1) amortised. Its per-sphere
+// state (home slot, home cell, overflow links: 16 bytes per sphere) is made by the first update() after a
+// build, in O(N), so users that only build and search (DEM) neither hold nor write it.
 //
 // Threads (setThreads): the grouping by level, each level's sort by cell (counting or radix sort, stable)
 // and the packed copy run over contiguous parts of the spheres, the pair search over chunks of cells and
@@ -254,6 +256,10 @@ class HGrid final : public BroadPhase {
   template <class Visit>
   void forEachOverflowInBox(const Level& lv, const double* x, double beta, Visit&& visit) const;
 
+  /// Home slot and cell key of every sphere in a slot, from the occupied cells.
+  void homes(std::vector<Index>& slotOf, std::vector<std::uint64_t>& homeKey) const;
+  /// update()'s per-sphere state after a build: homes, no sphere in the overflow.
+  void prepareUpdate();
   void overflowInsert(Level& lv, Index sphere, std::uint64_t key, const double* x, double r);
   void overflowRemove(Level& lv, Index sphere);
   Index overflowHead(const Level& lv, std::uint64_t key) const;
@@ -275,11 +281,13 @@ class HGrid final : public BroadPhase {
   hgrid::CellStore store_;     // slot ranges and occupied cells of every level
 
   // Per slot and per sphere.
-  std::vector<Index> sorted_;           // sphere per slot, -1 for a tombstone
-  std::vector<double> packed_;          // x, y, z, r per slot
-  std::vector<Index> slotOf_;           // home slot per sphere
-  std::vector<std::uint16_t> level_;    // 0-based level per sphere
-  std::vector<std::uint64_t> homeKey_;  // cell key of the home slot per sphere
+  std::vector<Index> sorted_;   // sphere per slot, -1 for a tombstone
+  std::vector<double> packed_;  // x, y, z, r per slot
+  // update()'s per-sphere state, made by its first call after a build (prepareUpdate): home slot and cell key.
+  bool updateReady_ = false;
+  std::vector<Index> slotOf_;
+  std::vector<std::uint16_t> level_;  // 0-based level per sphere
+  std::vector<std::uint64_t> homeKey_;
 
   // Overflow: records in insertion order (swap-removed), per-sphere position and list link.
   std::vector<OverflowRecord> overflow_;
@@ -288,7 +296,6 @@ class HGrid final : public BroadPhase {
 
   // Build scratch (kept to avoid allocations).
   std::vector<Index> levelCount_;
-  std::vector<Index> byLevel_;
   std::vector<Index> sortScratch_;  // histograms of the grouping by level
 
   // Threaded search: pieces of work in the serial order (h == j: same level over cells [begin, end),

@@ -515,8 +515,8 @@ void HGrid<kMode>::findNeighbours(const SphereView& spheres, Index i, double rea
   if (!(reach >= 0.0 && reach <= skin_)) {
     throw ConfigError(fmt::format("findNeighbours: reach {} must lie in [0, skin = {}]", reach, skin_));
   }
-  if (i < 0 || i >= static_cast<Index>(slotOf_.size())) {
-    throw ConfigError(fmt::format("findNeighbours: particle {} out of range [0, {})", i, slotOf_.size()));
+  if (i < 0 || i >= static_cast<Index>(level_.size())) {
+    throw ConfigError(fmt::format("findNeighbours: particle {} out of range [0, {})", i, level_.size()));
   }
   const double* xi = spheres.centre.col(i).data();
   const double ri = spheres.radius[i];
