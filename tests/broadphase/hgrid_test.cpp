@@ -686,6 +686,40 @@ TEST(HGridMemory, DiluteHugeBoxStaysLinearInN) {
   }
 }
 
+// A grid that is only built and searched (a DEM run) holds no state of update(); the first update() after a
+// build makes it (home slots and cells, overflow links: at least 16 bytes per sphere), later builds keep its
+// buffers, and the updates after every rebuild find the pairs brute force finds.
+TEST(HGridMemory, UpdateStateOnlyWhenUpdating) {
+  test::Scene scene =
+      test::makeScene({.count = 4000, .distribution = "uniform-volume", .sizeRatio = 10.0, .packing = 0.3, .seed = 21});
+  const double skin = 0.1 * scene.minRadius();
+  HGridTopDown td;
+  td.build(scene.spheres(), scene.box, skin);
+  const std::size_t buildOnly = td.memoryBytes();
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> step(-0.3, 0.3);
+  std::vector<Index> moved;
+  for (int round = 0; round < 3; ++round) {
+    moved.clear();
+    for (Index i = 0; i < scene.radius.size(); i += 7) {
+      for (int k = 0; k < 3; ++k) {
+        const double L = scene.box.length(k);
+        scene.centre(k, i) = std::fmod(scene.centre(k, i) + step(rng) * scene.radius[i] + L, L);
+      }
+      moved.push_back(i);
+    }
+    td.update(scene.spheres(), moved);
+    td.validate(scene.spheres());
+    std::vector<Pair> pairs;
+    td.findPairs(scene.spheres(), pairs);
+    sortPairs(pairs);
+    EXPECT_EQ(pairs, bruteForcePairs(scene, skin)) << "round " << round;
+    EXPECT_GE(td.memoryBytes(), buildOnly + 16 * static_cast<std::size_t>(scene.radius.size()));
+    td.build(scene.spheres(), scene.box, skin);  // the next update() prepares again
+    td.validate(scene.spheres());
+  }
+}
+
 TEST(HGridMemory, SteadyStateRebuildsReuseBuffers) {
   const test::Scene scene =
       test::makeScene({.count = 5000, .distribution = "uniform-volume", .sizeRatio = 30.0, .packing = 0.3, .seed = 9});
