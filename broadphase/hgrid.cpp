@@ -137,10 +137,7 @@ void HGrid<kMode>::setUpLevels() {
     }
     lv.nx = static_cast<std::uint64_t>(lv.n[0]);
     lv.nxy = lv.nx * static_cast<std::uint64_t>(lv.n[1]);
-    for (int o = 0; o < 13; ++o) {
-      const auto& d = hgrid::kHalfShell[o];
-      lv.shellDelta[o] = d[0] + static_cast<std::int64_t>(lv.n[0]) * (d[1] + static_cast<std::int64_t>(lv.n[1]) * d[2]);
-    }
+    lv.shellDelta = halfShellOffsets<std::int64_t>(lv.n[0], static_cast<std::int64_t>(lv.n[0]) * lv.n[1]);
   }
 }
 

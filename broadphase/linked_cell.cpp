@@ -38,10 +38,7 @@ void LinkedCell::doBuild(const SphereView& spheres) {
     inverseCellSize_[k] = 1.0 / cellSize_[k];
     if (box_.periodic(k) && cells_[k] == 2) aliased_ = true;
   }
-  for (std::size_t o = 0; o < kHalfShell.size(); ++o) {
-    const auto& d = kHalfShell[o];
-    shellDelta_[o] = d[0] + cells_[0] * (d[1] + cells_[1] * d[2]);
-  }
+  shellDelta_ = halfShellOffsets<int>(cells_[0], cells_[0] * cells_[1]);
 
   const int totalCells = cells_[0] * cells_[1] * cells_[2];
   cellStart_.resize(static_cast<std::size_t>(totalCells) + 1);
@@ -177,9 +174,9 @@ void LinkedCell::pairsImpl(int cellBegin, int cellEnd, std::vector<Pair>& out) c
     const auto cc = cellCoordinates(c);
     if (cc[0] >= 1 && cc[0] <= cells_[0] - 2 && cc[1] >= 1 && cc[1] <= cells_[1] - 2 && cc[2] >= 1 &&
         cc[2] <= cells_[2] - 2) {
-      // Interior cell: every forward neighbour exists unwrapped, at a fixed index offset (the same cells as
-      // the general path below, pairs in another order).
-      // The 13 cells as 5 runs along x (kHalfShellRuns), each one slot range.
+      // Interior cell: every forward neighbour exists unwrapped, at a fixed index offset, and the 13 cells are
+      // 5 runs along x (kHalfShellRuns), each one slot range: the cells of the general path below, pairs in
+      // another order.
       if constexpr (kCount) accesses += 13;
       for (const auto& run : kHalfShellRuns) {
         const int first = c + shellDelta_[static_cast<std::size_t>(run[0])];

@@ -31,6 +31,7 @@ Writes OUT/runs.csv (every run), OUT/summary.csv and OUT/README.md (tables, mach
 """
 import argparse
 import csv
+import io
 import json
 import os
 import platform
@@ -59,6 +60,23 @@ def cpu_model():
     except OSError:
         pass
     return platform.processor() or platform.machine()
+
+
+def write_atomic(path, text):
+    """Write the whole file beside its final name, then rename it over: a reader never sees half a report."""
+    tmp = path + ".tmp"
+    with open(tmp, "w", newline="") as f:
+        f.write(text)
+    os.replace(tmp, path)
+
+
+def csv_text(rows, fields, fmt=lambda v: v):
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=fields)
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: fmt(v) for k, v in r.items()})
+    return buf.getvalue()
 
 
 def steps_for(count):
@@ -116,7 +134,12 @@ def main():
             sys.exit(f"dem_limits_report: unknown scene '{s}' (known: {', '.join(SCENES)})")
     if a.rounds < 1 or any(n < 1000 for n in counts):
         sys.exit("dem_limits_report: --rounds must be >= 1 and every count >= 1000")
-    os.makedirs(a.out, exist_ok=True)
+    try:  # checked before the runs, not after them
+        os.makedirs(a.out, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"dem_limits_report: cannot create {a.out}: {e.strerror}")
+    if not os.access(a.out, os.W_OK):
+        sys.exit(f"dem_limits_report: cannot write to {a.out}")
 
     rows = []
     stream = {"dram": [], "l3": []}
@@ -144,10 +167,7 @@ def main():
         stream["dram"].append(run_stream(a.stream, 512, 10))
         stream["l3"].append(run_stream(a.stream, 4, 50))
 
-    with open(os.path.join(a.out, "runs.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    write_atomic(os.path.join(a.out, "runs.csv"), csv_text(rows, list(rows[0].keys())))
     dram = statistics.median(stream["dram"])
     l3 = statistics.median(stream["l3"])
     l3_bytes = 16 * 2**20  # a run whose data exceed half the 32 MiB L3 streams from DRAM
@@ -169,11 +189,8 @@ def main():
                     "candidates_per_contact": med["candidates_per_particle"] / max(1e-12, med["contacts_per_particle"]),
                     "loop_us": med["loop_us"], "bytes_held_per_particle": med["bytes_held"] / n,
                 })
-    with open(os.path.join(a.out, "summary.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(summary[0].keys()))
-        w.writeheader()
-        for s in summary:
-            w.writerow({k: (f"{v:.5g}" if isinstance(v, float) else v) for k, v in s.items()})
+    write_atomic(os.path.join(a.out, "summary.csv"),
+                 csv_text(summary, list(summary[0].keys()), lambda v: f"{v:.5g}" if isinstance(v, float) else v))
 
     cmd = "/usr/bin/python3 scripts/dem_limits_report.py " + " ".join(sys.argv[1:])
     readme = os.path.join(a.out, "README.md")
@@ -182,35 +199,36 @@ def main():
         old = open(readme).read()
         if NOTES_MARKER in old:
             notes = old[old.index(NOTES_MARKER):]
-    with open(readme, "w") as f:
-        f.write("# The DEM step against this machine's memory bandwidth\n\n")
-        f.write(f"Command: `{cmd}` ({a.rounds} rounds; every run in [runs.csv](runs.csv), the table in "
-                "[summary.csv](summary.csv)). Machine: " + cpu_model() +
-                f", {os.cpu_count()} CPUs; one thread pinned to CPU {a.cpu}.\n\n")
-        f.write(f"STREAM-like copy (`polydem_stream_copy`, medians of {2 * a.rounds} calls around the runs): "
-                f"DRAM (2 x 512 MiB) **{dram:.1f} GB/s**, L3-resident (2 x 4 MiB) **{l3:.1f} GB/s**. A run whose "
-                "data (`bytes held`) fit in half the 32 MiB L3 is compared with the L3 figure, a larger one with "
-                "DRAM.\n\n")
-        f.write("The traffic model is in the script's header: the bytes each phase must move per particle "
-                "and step if it touched every array once. `achieved` = those bytes / the phase's time; "
-                "`headroom` = how much faster the phase would be if that traffic at the copy bandwidth were its only "
-                "limit.\n\n")
-        f.write("| scene | N | phase | us/particle-step | compulsory B | achieved GB/s | level | % of copy | headroom |\n")
-        f.write("| --- | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |\n")
-        for s in summary:
-            f.write(f"| {s['scene']} | {s['particles']} | {s['phase']} | {s['us_per_particle_step']:.4f} | "
-                    f"{s['compulsory_bytes']:.0f} | {s['gb_per_s']:.1f} | {s['level']} | "
-                    f"{100 * s['fraction_of_stream']:.0f}% | {s['headroom']:.1f}x |\n")
-        f.write("\n| scene | N | loop us/particle-step | Verlet candidates per contact | bytes held per particle |\n")
-        f.write("| --- | ---: | ---: | ---: | ---: |\n")
-        for s in summary:
-            if s["phase"] != "force":
-                continue
-            f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['candidates_per_contact']:.2f} | "
-                    f"{s['bytes_held_per_particle']:.0f} |\n")
-        f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".\n")
-        if notes:
-            f.write("\n" + notes)
+    f = io.StringIO()
+    f.write("# The DEM step against this machine's memory bandwidth\n\n")
+    f.write(f"Command: `{cmd}` ({a.rounds} rounds; every run in [runs.csv](runs.csv), the table in "
+            "[summary.csv](summary.csv)). Machine: " + cpu_model() +
+            f", {os.cpu_count()} CPUs; one thread pinned to CPU {a.cpu}.\n\n")
+    f.write(f"STREAM-like copy (`polydem_stream_copy`, medians of {2 * a.rounds} calls around the runs): "
+            f"DRAM (2 x 512 MiB) **{dram:.1f} GB/s**, L3-resident (2 x 4 MiB) **{l3:.1f} GB/s**. A run whose "
+            "data (`bytes held`) fit in half the 32 MiB L3 is compared with the L3 figure, a larger one with "
+            "DRAM.\n\n")
+    f.write("The traffic model is in the script's header: the bytes each phase must move per particle "
+            "and step if it touched every array once. `achieved` = those bytes / the phase's time; "
+            "`headroom` = how much faster the phase would be if that traffic at the copy bandwidth were its only "
+            "limit.\n\n")
+    f.write("| scene | N | phase | us/particle-step | compulsory B | achieved GB/s | level | % of copy | headroom |\n")
+    f.write("| --- | ---: | --- | ---: | ---: | ---: | --- | ---: | ---: |\n")
+    for s in summary:
+        f.write(f"| {s['scene']} | {s['particles']} | {s['phase']} | {s['us_per_particle_step']:.4f} | "
+                f"{s['compulsory_bytes']:.0f} | {s['gb_per_s']:.1f} | {s['level']} | "
+                f"{100 * s['fraction_of_stream']:.0f}% | {s['headroom']:.1f}x |\n")
+    f.write("\n| scene | N | loop us/particle-step | Verlet candidates per contact | bytes held per particle |\n")
+    f.write("| --- | ---: | ---: | ---: | ---: |\n")
+    for s in summary:
+        if s["phase"] != "force":
+            continue
+        f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['candidates_per_contact']:.2f} | "
+                f"{s['bytes_held_per_particle']:.0f} |\n")
+    f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".\n")
+    if notes:
+        f.write("\n" + notes)
+    write_atomic(readme, f.getvalue())
     print(f"wrote {a.out}/README.md, summary.csv, runs.csv")
 
 
