@@ -13,7 +13,8 @@
 // The CSV holds the medians over rounds in microseconds of thread CPU time per particle (update: per
 // particle of the system; update_per_moved: per moved sphere) and memoryBytes() per particle.
 //
-// Backend names are the registry's, plus lbvh:B for an LBVH with leaves of B spheres.
+// Backend names are the registry's, plus lbvh:B for an LBVH with leaves of B spheres and hgrid-td+aabb /
+// hgrid-bu+aabb for the HGrid with the AABB pre-check on (off by default since session 17).
 //   polydem_backends_report [--backends a,b] [--repeat 5] [--moved 0.01,0.1] [--skin-factor 0.1]
 //                           [--budget 60] [--csv out.csv] FILE...
 #include <fmt/format.h>
@@ -30,6 +31,7 @@
 #include <string>
 #include <vector>
 
+#include "broadphase/hgrid.hpp"
 #include "broadphase/lbvh.hpp"
 #include "broadphase/linked_cell.hpp"
 #include "broadphase/morton_order.hpp"
@@ -97,12 +99,25 @@ void displace(const io::ParticleData& d, double skin, double fraction, int round
   }
 }
 
-/// A registry backend, or `lbvh:B` for the LBVH with leaves of B spheres (leaf-size tuning).
+/// A registry backend, `lbvh:B` for the LBVH with leaves of B spheres (leaf-size tuning), or `hgrid-td+aabb` /
+/// `hgrid-bu+aabb` for the HGrid with its optional AABB pre-check of cross-level candidates switched on.
 std::unique_ptr<broadphase::BroadPhase> makeBackend(const std::string& name) {
   if (name.rfind("lbvh:", 0) == 0) {
     auto bvh = std::make_unique<broadphase::Lbvh>();
     bvh->setLeafSize(std::stoi(name.substr(5)));
     return bvh;
+  }
+  const std::string aabb = "+aabb";
+  if (name.size() > aabb.size() && name.compare(name.size() - aabb.size(), aabb.size(), aabb) == 0) {
+    auto bp = broadphase::makeBroadPhase(name.substr(0, name.size() - aabb.size()));
+    if (auto* td = dynamic_cast<broadphase::HGridTopDown*>(bp.get())) {
+      td->setAabbPrecheck(true);
+    } else if (auto* bu = dynamic_cast<broadphase::HGridBottomUp*>(bp.get())) {
+      bu->setAabbPrecheck(true);
+    } else {
+      throw ConfigError(fmt::format("backend '{}': only hgrid-td and hgrid-bu have the AABB pre-check", name));
+    }
+    return bp;
   }
   return broadphase::makeBroadPhase(name);
 }
@@ -150,9 +165,7 @@ double linkedCellTests(const broadphase::LinkedCell& lc, const io::ParticleData&
   return tests;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   CLI::App app{"build, find and update cost per particle of every broad-phase backend"};
   std::vector<std::string> files, backends;
   std::vector<double> fractions = {0.01, 0.1};
@@ -174,6 +187,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
+  for (const std::string& name : backends) makeBackend(name);  // a bad name fails before any output
   std::ofstream file;
   if (csvPath != "-") file.open(csvPath);
   std::ostream& csv = csvPath == "-" ? std::cout : file;
@@ -295,4 +309,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {  // a bad backend name or an unreadable file: a message, not an abort
+    fmt::print(stderr, "polydem_backends_report: {}\n", e.what());
+    return 2;
+  }
 }

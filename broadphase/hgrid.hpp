@@ -42,9 +42,9 @@
 // mono 1 : 1.1 : 1.55; uniform volume omega = 50 with optimised sizes, TD 1 : 1.3 : 2.9, BU
 // 1 : 1.4 : 1.7. The AABB pre-check of cross-level candidates (thesis §2.1.2) is off by default: its
 // three unpredictable comparisons cost more than the exact test they would save (measured 4 Dec 2026,
-// N = 2e5, one core, `auto`'s sizes: findPairs 12-22 % faster without it for uniform volume omega 10-100
-// and power law -3 omega 20-100, at packing 0.3 and 0.6, skin 0 to 1 r_min; 4 % for bidisperse omega 10;
-// docs/benchmarks/broadphase_ratio/README.md). setAabbPrecheck(true) restores it.
+// N = 2e5, one core, the optimiser's sizes: findPairs 10-23 % faster without it for uniform volume omega
+// 10-100 and power law -3 omega 20-100, at packing 0.3 and 0.6, skin 0 to 1 r_min; 5 % for bidisperse omega
+// 10; docs/benchmarks/broadphase_ratio/README.md). setAabbPrecheck(true) restores it.
 //
 // Work counters (setCounting) are the cost model's T_cd and T_ca per level of the searching sphere
 // (thesis §2.2.3, eqs. 2.20-2.30): per sphere 1 own-cell look-up + one per existing
