@@ -232,8 +232,9 @@ struct PairKernel {
   /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
   /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
   /// ownedEnd = n (no cross pairs).
-  template <class Cross>
+  template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    [[maybe_unused]] const Index lastCandidate = offset[end] - 1;  // read only when a row has candidates
     for (Index i = begin; i < end; ++i) {
       const Row a = loadRow(i);
       double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
@@ -241,6 +242,15 @@ struct PairKernel {
       const Index rowEnd = offset[i + 1];
       for (Index c = offset[i]; c < rowEnd; ++c) {
         const Index j = neighbour[c];
+        if constexpr (kAhead != LookAhead::None) {
+          const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
+          __builtin_prefetch(x + 3 * ahead);
+          __builtin_prefetch(r + ahead);
+          if constexpr (kAhead == LookAhead::Contacts) {
+            __builtin_prefetch(v + 3 * ahead);
+            __builtin_prefetch(f + 3 * ahead, 1);
+          }
+        }
         if (j >= ownedEnd) {
           if (const double* stored = cross(c)) {
             fi0 += stored[0];
@@ -309,7 +319,18 @@ void serialPairs(const typename Law::Params& params, const ForceContext& ctx) {
       std::memset(ctx.torque, 0, sizeof(double) * n3);
     }
   }
-  k.rows(0, ctx.count, ctx.count, [](Index) -> const double* { return nullptr; });
+  const auto none = [](Index) -> const double* { return nullptr; };
+  switch (ctx.lookAhead) {
+    case LookAhead::None:
+      k.template rows<LookAhead::None>(0, ctx.count, ctx.count, none);
+      break;
+    case LookAhead::Centres:
+      k.template rows<LookAhead::Centres>(0, ctx.count, ctx.count, none);
+      break;
+    case LookAhead::Contacts:
+      k.template rows<LookAhead::Contacts>(0, ctx.count, ctx.count, none);
+      break;
+  }
 }
 
 #if POLYDEM_WITH_OPENMP
@@ -367,12 +388,18 @@ void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) 
 #pragma omp for schedule(static, 1)
     for (Index s = 0; s < blocks; ++s) {
       Index e = crossStart[s];
-      k.rows(blockStart[s], blockStart[s + 1], blockStart[s + 1], [&](Index c) -> const double* {
+      const auto crossForce = [&](Index c) -> const double* {
         POLYDEM_ASSERT(crossPair[e] == c, "cross pairs out of step with the rows");
         (void)c;
         const Index here = e++;
         return touching[here] ? stored + kStride * static_cast<std::size_t>(here) : nullptr;
-      });
+      };
+      // Centres at most: a prefetch for writing could pull another block's forces from its thread.
+      if (ctx.lookAhead == LookAhead::None) {
+        k.rows(blockStart[s], blockStart[s + 1], blockStart[s + 1], crossForce);
+      } else {
+        k.template rows<LookAhead::Centres>(blockStart[s], blockStart[s + 1], blockStart[s + 1], crossForce);
+      }
     }
   }
 }

@@ -85,7 +85,7 @@ void DemSimulation::fail(const std::string& what, const std::string& cause) cons
       fmt::format("step {} (t = {:.6g} s): {}{}. Likely cause: {}", step_, time(), what, energyText, cause));
 }
 
-void DemSimulation::checkStability() const {
+contact::ContactStats DemSimulation::checkStability() const {
   const Index n = particles_.count();
   const Eigen::Matrix3Xd& x = particles_.position();
   const Eigen::Matrix3Xd& v = particles_.velocity();
@@ -167,6 +167,7 @@ void DemSimulation::checkStability() const {
            dtHint());
     }
   }
+  return stats;
 }
 
 }  // namespace polydem::integrators

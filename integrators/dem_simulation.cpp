@@ -214,6 +214,7 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
   rejectCoincidentCentres();
   computeForces();
   initialEnergy_ = energies().total();
+  chooseLookAhead(contactStats());
 }
 
 void DemSimulation::validateSettings() {
@@ -354,6 +355,12 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
     pairHistory_.assign(state.pairKeys, state.pairValues);
     wallHistory_.assign(state.wallKeys, state.wallValues);
   }
+  chooseLookAhead(contactStats());
+}
+
+void DemSimulation::chooseLookAhead(const contact::ContactStats& stats) {
+  const auto candidates = static_cast<double>(std::max<std::size_t>(1, verlet_.list().pairCount()));
+  lookAhead_ = contact::chooseLookAhead(particles_.count(), static_cast<double>(stats.contacts) / candidates);
 }
 
 DemState DemSimulation::state() const {
@@ -419,6 +426,7 @@ contact::ForceContext DemSimulation::context() const {
   c.threads = settings_.threads;
   c.crossScratch = self.crossScratch_.data();
   c.crossTouching = self.crossTouching_.data();
+  c.lookAhead = lookAhead_;
   return c;
 }
 
@@ -587,7 +595,7 @@ std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {
     times_.force += seconds(t2, t3);
     ++step_;
     if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) {
-      checkStability();
+      chooseLookAhead(checkStability());
       times_.check += seconds(t4, Clock::now());
     }
     if (stopOnInterrupt && !closePending && interruptRequested()) return s + 1;

@@ -168,7 +168,7 @@ class DemSimulation {
   std::int64_t advance(std::int64_t steps, bool stopOnInterrupt = false);
 
   /// Run the stability check now. Throws SimulationError.
-  void checkStability() const;
+  contact::ContactStats checkStability() const;  ///< the contact statistics it checked
 
   /// Multiply every radius by `factor` (>= 1) at constant density (masses by factor^3, inertia by
   /// factor^5), for soft compression. The neighbour list stays valid: the rebuild criterion becomes
@@ -226,6 +226,8 @@ class DemSimulation {
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();
+  /// The force loop's look-ahead from the share of the list's candidates that touch (contact::chooseLookAhead).
+  void chooseLookAhead(const contact::ContactStats& stats);
   /// Wrap periodic coordinates into [0, L) and check walled ones (SimulationError naming the particle).
   void wrapPositions();
   /// The particles in Morton order of their (wrapped) centres, every per-particle array permuted in place
@@ -255,8 +257,9 @@ class DemSimulation {
   contact::ContactHistory pairHistory_, wallHistory_;
   std::vector<std::uint64_t> pairKeys_, wallKeys_;
   Eigen::Matrix3Xd velocityPredicted_, angularVelocityPredicted_;
-  std::vector<double> crossScratch_;         ///< threads > 1: forces (torques) of the cross pairs
-  std::vector<std::uint8_t> crossTouching_;  ///< threads > 1: contact flag per cross pair
+  std::vector<double> crossScratch_;                         ///< threads > 1: forces (torques) of the cross pairs
+  std::vector<std::uint8_t> crossTouching_;                  ///< threads > 1: contact flag per cross pair
+  contact::LookAhead lookAhead_ = contact::LookAhead::None;  ///< the force loop's prefetching (force_loop.hpp)
   bool predict_ = false;  ///< dashpots or viscous damping present and Predicted: keep velocityPredicted_
   bool conservative_ = false;
   double growthSinceBuild_ = 0.0;  ///< largest radius increase since the last neighbour-list build (m)

@@ -933,6 +933,8 @@ contact::ForceContext DistributedDem::context() {
   c.threads = settings_.threads;
   c.crossScratch = crossScratch_.data();
   c.crossTouching = crossTouching_.data();
+  // Centres only: a rank does not track its touching share (the choice changes no result).
+  c.lookAhead = contact::chooseLookAhead(n_, 0.0);
   return c;
 }
 

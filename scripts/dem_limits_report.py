@@ -27,7 +27,10 @@ when it left the cache, write-allocate), so the fractions are lower bounds of th
 Usage: /usr/bin/python3 scripts/dem_limits_report.py [--polydem build/apps/polydem]
        [--stream build/benchmarks/polydem_stream_copy] [--out docs/benchmarks/dem_limits] [--rounds 3]
        [--counts 50000,1000000] [--scenes mono,uv10]
-Writes OUT/runs.csv (every run), OUT/summary.csv and OUT/README.md (tables, machine, command).
+Writes OUT/runs.csv (every run), OUT/summary.csv, OUT/scaling.png (cost per particle-step and per phase
+against N, needs Debian's matplotlib) and OUT/README.md (tables, machine, command). Each count's cost is
+also given relative to the smallest count of its scene (issue 18: 10^6 within 1.15x, 10^7 within 1.3x of
+5 x 10^4).
 """
 import argparse
 import csv
@@ -105,6 +108,41 @@ def run_relax(polydem, root, scene, count, steps, cpu):
         return json.load(open(summary))["report"]
 
 
+def plot(summary, scenes, path):
+    """Cost per particle-step against N: the loop relative to the smallest N (left), each phase (right)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for scene in scenes:
+        rows = sorted((s for s in summary if s["scene"] == scene and s["phase"] == "force"),
+                      key=lambda s: s["particles"])
+        ns = [s["particles"] for s in rows]
+        left.plot(ns, [s["loop_relative"] for s in rows], "o-", label=scene)
+        line = right.plot(ns, [s["loop_us"] for s in rows], "o-", label=f"{scene} step")[0]
+        for phase, style in (("force", "s--"), ("integration", "^:"), ("broad_phase", "v-.")):
+            ph = sorted((s for s in summary if s["scene"] == scene and s["phase"] == phase),
+                        key=lambda s: s["particles"])
+            right.plot(ns, [s["us_per_particle_step"] for s in ph], style, color=line.get_color(), alpha=0.7,
+                       label=f"{scene} {phase.replace('_', ' ')}")
+    for y, text in ((1.15, "1.15x (10^6 target)"), (1.3, "1.3x (10^7 target)")):
+        left.axhline(y, color="grey", lw=0.8, ls="--")
+        left.text(min(s["particles"] for s in summary), y, text, fontsize=8, va="bottom", color="grey")
+    left.set_xscale("log")
+    left.set_xlabel("particles N")
+    left.set_ylabel("step cost per particle / cost at the smallest N")
+    left.legend()
+    right.set_xscale("log")
+    right.set_yscale("log")
+    right.set_xlabel("particles N")
+    right.set_ylabel("us per particle-step (one thread)")
+    right.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    tmp = path + ".tmp.png"
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)
+
+
 def traffic(c, k):
     """Compulsory bytes per particle-step per phase (see the module docstring)."""
     return {"integration": 176.0, "force": 92.0 + 4.0 * c, "broad_phase": (184.0 + 28.0 * c) / k}
@@ -174,9 +212,12 @@ def main():
 
     summary = []
     for scene in scenes:
-        for n in counts:
+        base_loop = None
+        for n in sorted(counts):
             rs = [x for x in rows if x["scene"] == scene and x["particles"] == n]
             med = {k: statistics.median(x[k] for x in rs) for k in rs[0] if k not in ("round", "scene")}
+            if base_loop is None:
+                base_loop = med["loop_us"]
             level, bw = ("L3", l3) if med["bytes_held"] < l3_bytes else ("DRAM", dram)
             bytes_ = traffic(med["candidates_per_particle"], med["steps_per_rebuild"])
             for phase in ("broad_phase", "force", "integration"):
@@ -187,8 +228,10 @@ def main():
                     "compulsory_bytes": bytes_[phase], "gb_per_s": gbs, "level": level, "stream_gb_per_s": bw,
                     "fraction_of_stream": gbs / bw, "headroom": bw / gbs,
                     "candidates_per_contact": med["candidates_per_particle"] / max(1e-12, med["contacts_per_particle"]),
-                    "loop_us": med["loop_us"], "bytes_held_per_particle": med["bytes_held"] / n,
+                    "loop_us": med["loop_us"], "loop_relative": med["loop_us"] / base_loop,
+                    "bytes_held_per_particle": med["bytes_held"] / n,
                 })
+    plot(summary, scenes, os.path.join(a.out, "scaling.png"))
     write_atomic(os.path.join(a.out, "summary.csv"),
                  csv_text(summary, list(summary[0].keys()), lambda v: f"{v:.5g}" if isinstance(v, float) else v))
 
@@ -218,13 +261,15 @@ def main():
         f.write(f"| {s['scene']} | {s['particles']} | {s['phase']} | {s['us_per_particle_step']:.4f} | "
                 f"{s['compulsory_bytes']:.0f} | {s['gb_per_s']:.1f} | {s['level']} | "
                 f"{100 * s['fraction_of_stream']:.0f}% | {s['headroom']:.1f}x |\n")
-    f.write("\n| scene | N | loop us/particle-step | Verlet candidates per contact | bytes held per particle |\n")
-    f.write("| --- | ---: | ---: | ---: | ---: |\n")
+    f.write("\n| scene | N | loop us/particle-step | relative to the smallest N | Verlet candidates per contact "
+            "| bytes held per particle |\n")
+    f.write("| --- | ---: | ---: | ---: | ---: | ---: |\n")
     for s in summary:
         if s["phase"] != "force":
             continue
-        f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['candidates_per_contact']:.2f} | "
-                f"{s['bytes_held_per_particle']:.0f} |\n")
+        f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['loop_relative']:.2f}x | "
+                f"{s['candidates_per_contact']:.2f} | {s['bytes_held_per_particle']:.0f} |\n")
+    f.write("\n![cost per particle-step against N](scaling.png)\n")
     f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".\n")
     if notes:
         f.write("\n" + notes)

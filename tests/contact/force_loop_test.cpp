@@ -215,6 +215,55 @@ TEST(ForceLoop, ThreadedLoopIsBitIdenticalToTheSerialOne) {
 }
 #endif
 
+TEST(ForceLoop, LookAheadChangesNoResult) {
+  // The prefetching variants of the loop read and write exactly what the plain one does: same forces,
+  // torques and springs, serial and (OpenMP builds) threaded, for every law.
+  for (NormalModel normal : {NormalModel::Linear, NormalModel::Hertz}) {
+    for (double friction : {0.0, 0.5}) {
+      for (bool general : {false, true}) {
+        SCOPED_TRACE(::testing::Message()
+                     << "hertz " << (normal == NormalModel::Hertz) << " mu " << friction << " general " << general);
+        const ContactModel m = model(friction, normal);
+        const ForceKernel k = selectForceKernel(m, KernelFlags{}, general);
+        for (int threads : {1, 3}) {
+          if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
+          Fixture plain(true), ahead(true);
+          for (Fixture* f : {&plain, &ahead}) f->list.buildBlocks(threads);
+          std::vector<double> scratch(crossScratchSize(plain.list.crossCount(), k.rotation));
+          std::vector<std::uint8_t> touching(plain.list.crossCount());
+          for (LookAhead mode : {LookAhead::Centres, LookAhead::Contacts, LookAhead::Centres}) {
+            ForceContext a = plain.context(), b = ahead.context();
+            for (ForceContext* c : {&a, &b}) {
+              c->gravity[2] = -9.81;
+              c->threads = threads;
+              c->crossScratch = scratch.data();
+              c->crossTouching = touching.data();
+            }
+            b.lookAhead = mode;
+            k.run(m, a);
+            k.run(m, b);
+            ASSERT_TRUE(plain.particles.force() == ahead.particles.force()) << threads << " threads";
+            if (k.rotation) ASSERT_TRUE(plain.particles.torque() == ahead.particles.torque());
+          }
+          if (k.historyWidth > 0) {
+            for (std::size_t c = 0; c < plain.list.pairCount(); ++c) {
+              for (int q = 0; q < 3; ++q) ASSERT_EQ(plain.pairHistory.values(c)[q], ahead.pairHistory.values(c)[q]);
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(ForceLoop, LookAheadOnlyForLargeSystemsAndContactDataOnlyWhenManyCandidatesTouch) {
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount - 1, 1.0), LookAhead::None);
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.0), LookAhead::Centres);
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.2), LookAhead::Centres);
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.25), LookAhead::Contacts);
+  EXPECT_EQ(chooseLookAhead(10 * kLookAheadMinCount, 0.9), LookAhead::Contacts);
+}
+
 TEST(ForceLoop, MeasureReportsTheLargestOverlap) {
   Fixture fx(true);
   const ContactModel m = model(0.0);
