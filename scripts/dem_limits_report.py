@@ -24,9 +24,14 @@ Verlet list, k = steps per rebuild):
 The model counts each array once per step; real kernels move more (neighbours' data read once per pair
 when it left the cache, write-allocate), so the fractions are lower bounds of the bandwidth the phases use.
 
+Starts: by default each run generates its spheres (RSA, `particles.count`), which at 10^7 takes longer than
+the run (many minutes at packing 0.6). With --starts DIR each scene and count is generated once by
+`polydem generate` into DIR/<scene>_<N>.h5 (kept: a later report reuses it) and every run reads it
+(`particles.file`, the example's other settings, impact velocities); generation time is not run time.
+
 Usage: /usr/bin/python3 scripts/dem_limits_report.py [--polydem build/apps/polydem]
        [--stream build/benchmarks/polydem_stream_copy] [--out docs/benchmarks/dem_limits] [--rounds 3]
-       [--counts 50000,1000000] [--scenes mono,uv10]
+       [--counts 50000,1000000] [--scenes mono,uv10] [--starts DIR]
 Writes OUT/runs.csv (every run), OUT/summary.csv, OUT/scaling.png (cost per particle-step and per phase
 against N, needs Debian's matplotlib) and OUT/README.md (tables, machine, command). Each count's cost is
 also given relative to the smallest count of its scene (issue 18: 10^6 within 1.15x, 10^7 within 1.3x of
@@ -44,12 +49,17 @@ import sys
 import tempfile
 
 SCENES = {
-    # name: (settings, description)
+    # name: (settings, description, `polydem generate` options for the same spheres)
     "mono": (['particles.distribution="mono"', "particles.packing_fraction=0.3"],
-             "equal spheres, RSA at packing 0.3"),
-    "uv10": ([], "uniform volume f(r) ~ r^-3, omega 10, RSA at packing 0.6 (the example scene)"),
-    "uv50": (["particles.omega=50"], "uniform volume, omega 50, RSA at packing 0.6"),
+             "equal spheres, RSA at packing 0.3", ["--dist", "mono", "--phi", "0.3"]),
+    "uv10": ([], "uniform volume f(r) ~ r^-3, omega 10, RSA at packing 0.6 (the example scene)",
+             ["--dist", "uv", "--omega", "10", "--phi", "0.6"]),
+    "uv50": (["particles.omega=50"], "uniform volume, omega 50, RSA at packing 0.6",
+             ["--dist", "uv", "--omega", "50", "--phi", "0.6"]),
 }
+# The example's keys that generate spheres; dropped from the scene file when the spheres come from --starts.
+GENERATION_KEYS = {("[particles]", k) for k in ("count", "distribution", "rmin", "omega", "sampling",
+                                                 "packing_fraction", "seed")} | {("[box]", "aspect")}
 
 
 NOTES_MARKER = "<!-- notes: kept when the report is made again -->"
@@ -94,11 +104,51 @@ def run_stream(stream, mib, repeat):
         return json.load(open(f.name))["median_gb_per_s"]
 
 
-def run_relax(polydem, root, scene, count, steps, cpu):
-    sets = SCENES[scene][0] + [f"particles.count={count}"]
+def start_file(polydem, starts, scene, count):
+    """DIR/<scene>_<N>.h5, generated (atomically: temporary name, then rename) when missing."""
+    path = os.path.join(starts, f"{scene}_{count}.h5")
+    if not os.path.exists(path):
+        tmp = os.path.join(starts, f".{scene}_{count}.tmp.h5")
+        print(f"generating {path}", flush=True)
+        subprocess.run([polydem, "generate", "-n", str(count), "--rmin", "0.5e-3", "--seed", "1", "-o", tmp]
+                       + SCENES[scene][2], check=True, stdout=subprocess.DEVNULL)
+        os.replace(tmp, path)
+        if os.path.exists(tmp[:-3] + ".xmf"):
+            os.remove(tmp[:-3] + ".xmf")  # the sidecar names the temporary file
+    return path
+
+
+def scene_reading(root, tmp, start):
+    """The example scene with its generation keys replaced by `file = start`."""
+    out, section = [], ""
+    for line in open(os.path.join(root, "examples/relax_uv10.toml")):
+        stripped = line.strip()
+        if stripped.startswith("["):
+            section = stripped
+            out.append(line)
+            if section == "[particles]":
+                out.append(f'file = "{start}"\n')
+            continue
+        key = stripped.split("=", 1)[0].strip()
+        if (section, key) in GENERATION_KEYS:
+            continue
+        out.append(line)
+    path = os.path.join(tmp, "scene.toml")
+    with open(path, "w") as f:
+        f.writelines(out)
+    return path
+
+
+def run_relax(polydem, root, scene, count, steps, cpu, start=None):
     with tempfile.TemporaryDirectory() as tmp:
+        if start:
+            scene_file = scene_reading(root, tmp, start)
+            sets = ['velocities.initial="impact"']
+        else:
+            scene_file = os.path.join(root, "examples/relax_uv10.toml")
+            sets = SCENES[scene][0] + [f"particles.count={count}"]
         summary = os.path.join(tmp, "s.json")
-        cmd = ["taskset", "-c", str(cpu), polydem, "relax", os.path.join(root, "examples/relax_uv10.toml"), "-q",
+        cmd = ["taskset", "-c", str(cpu), polydem, "relax", scene_file, "-q",
                "--threads", "1", "--steps", str(steps), "--summary-json", summary,
                "--set", f'output.final="{os.path.join(tmp, "final.txt")}"',
                "--set", f'output.timeseries="{os.path.join(tmp, "series.csv")}"']
@@ -158,6 +208,7 @@ def main():
     ap.add_argument("--counts", default="50000,1000000")
     ap.add_argument("--scenes", default="mono,uv10")
     ap.add_argument("--cpu", type=int, default=1)
+    ap.add_argument("--starts", default="", help="directory of generated starts (made and reused)")
     a = ap.parse_args()
     for exe in (a.polydem, a.stream):
         if not os.access(exe, os.X_OK):
@@ -179,6 +230,18 @@ def main():
     if not os.access(a.out, os.W_OK):
         sys.exit(f"dem_limits_report: cannot write to {a.out}")
 
+    starts = {}
+    if a.starts:
+        try:
+            os.makedirs(a.starts, exist_ok=True)
+        except OSError as e:
+            sys.exit(f"dem_limits_report: cannot create {a.starts}: {e.strerror}")
+        if not os.access(a.starts, os.W_OK):
+            sys.exit(f"dem_limits_report: cannot write to {a.starts}")
+        for scene in scenes:
+            for n in counts:
+                starts[(scene, n)] = os.path.abspath(start_file(a.polydem, a.starts, scene, n))
+
     rows = []
     stream = {"dram": [], "l3": []}
     for r in range(1, a.rounds + 1):
@@ -187,7 +250,7 @@ def main():
         for scene in scenes:
             for n in counts:
                 steps = steps_for(n)
-                rep = run_relax(a.polydem, root, scene, n, steps, a.cpu)
+                rep = run_relax(a.polydem, root, scene, n, steps, a.cpu, starts.get((scene, n)))
                 t = rep["time"]
                 ps = float(n) * rep["steps_run"]
                 rows.append({
@@ -270,7 +333,9 @@ def main():
         f.write(f"| {s['scene']} | {s['particles']} | {s['loop_us']:.4f} | {s['loop_relative']:.2f}x | "
                 f"{s['candidates_per_contact']:.2f} | {s['bytes_held_per_particle']:.0f} |\n")
     f.write("\n![cost per particle-step against N](scaling.png)\n")
-    f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".\n")
+    f.write("\nScenes: " + "; ".join(f"{s}: {SCENES[s][1]}" for s in scenes) + ".")
+    f.write(" Starts generated once by `polydem generate` (rmin 0.5 mm, seed 1) and read by every run.\n"
+            if a.starts else " Each run generates its spheres.\n")
     if notes:
         f.write("\n" + notes)
     write_atomic(readme, f.getvalue())
