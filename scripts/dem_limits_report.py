@@ -110,8 +110,11 @@ def start_file(polydem, starts, scene, count):
     if not os.path.exists(path):
         tmp = os.path.join(starts, f".{scene}_{count}.tmp.h5")
         print(f"generating {path}", flush=True)
-        subprocess.run([polydem, "generate", "-n", str(count), "--rmin", "0.5e-3", "--seed", "1", "-o", tmp]
-                       + SCENES[scene][2], check=True, stdout=subprocess.DEVNULL)
+        gen = subprocess.run([polydem, "generate", "-n", str(count), "--rmin", "0.5e-3", "--seed", "1", "-o", tmp]
+                             + SCENES[scene][2], stdout=subprocess.DEVNULL)
+        if gen.returncode != 0:
+            sys.exit(f"dem_limits_report: polydem generate failed for {path} (exit {gen.returncode}; its message "
+                     "is above)")
         os.replace(tmp, path)
         if os.path.exists(tmp[:-3] + ".xmf"):
             os.remove(tmp[:-3] + ".xmf")  # the sidecar names the temporary file
