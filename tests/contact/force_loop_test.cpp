@@ -169,91 +169,90 @@ TEST(ContactList, BlocksSplitTheRowsAndListEveryCrossPairOnce) {
   }
 }
 
-#if POLYDEM_WITH_OPENMP
-TEST(ForceLoop, ThreadedLoopIsBitIdenticalToTheSerialOne) {
-  // Every law, with and without walls/gravity/damping: same forces, torques and springs for any thread
-  // count (the owner-computes loop sums every force in the serial order); 8 blocks on a 400-sphere scene
-  // make many cross pairs.
+/// Calls body(model, kernel) for every normal law, frictionless and frictional, specialised and general.
+template <class Body>
+void forEveryKernel(Body body) {
   for (NormalModel normal : {NormalModel::Linear, NormalModel::Hertz}) {
     for (double friction : {0.0, 0.5}) {
       for (bool general : {false, true}) {
         SCOPED_TRACE(::testing::Message()
                      << "hertz " << (normal == NormalModel::Hertz) << " mu " << friction << " general " << general);
         const ContactModel m = model(friction, normal);
-        const ForceKernel k = selectForceKernel(m, KernelFlags{}, general);
-        Fixture serial(false), threaded(false);
-        for (int threads : {2, 3, 8}) {
-          threaded.list.buildBlocks(threads);
-          std::vector<double> scratch(crossScratchSize(threaded.list.crossCount(), k.rotation));
-          std::vector<std::uint8_t> touching(threaded.list.crossCount());
-          for (int repeat = 0; repeat < 3; ++repeat) {  // springs load over several calls
-            ForceContext a = serial.context(), b = threaded.context();
-            for (ForceContext* c : {&a, &b}) {
-              c->gravity[2] = -9.81;
-              c->viscousRate = 0.3;
-            }
-            b.threads = threads;
-            b.crossScratch = scratch.data();
-            b.crossTouching = touching.data();
-            k.run(m, a);
-            k.run(m, b);
-            ASSERT_TRUE(serial.particles.force() == threaded.particles.force()) << threads << " threads";
-            if (k.rotation) {
-              ASSERT_TRUE(serial.particles.torque() == threaded.particles.torque()) << threads << " threads";
-            }
-          }
-        }
-        if (k.historyWidth > 0) {
-          EXPECT_GT(serial.pairHistory.activeCount(), 50u);
-          for (std::size_t c = 0; c < serial.list.pairCount(); ++c) {
-            for (int q = 0; q < 3; ++q) ASSERT_EQ(serial.pairHistory.values(c)[q], threaded.pairHistory.values(c)[q]);
-          }
-        }
+        body(m, selectForceKernel(m, KernelFlags{}, general));
       }
     }
   }
+}
+
+#if POLYDEM_WITH_OPENMP
+TEST(ForceLoop, ThreadedLoopIsBitIdenticalToTheSerialOne) {
+  // Every law, with and without walls/gravity/damping: same forces, torques and springs for any thread
+  // count (the owner-computes loop sums every force in the serial order); 8 blocks on a 400-sphere scene
+  // make many cross pairs.
+  forEveryKernel([](const ContactModel& m, const ForceKernel& k) {
+    Fixture serial(false), threaded(false);
+    for (int threads : {2, 3, 8}) {
+      threaded.list.buildBlocks(threads);
+      std::vector<double> scratch(crossScratchSize(threaded.list.crossCount(), k.rotation));
+      std::vector<std::uint8_t> touching(threaded.list.crossCount());
+      for (int repeat = 0; repeat < 3; ++repeat) {  // springs load over several calls
+        ForceContext a = serial.context(), b = threaded.context();
+        for (ForceContext* c : {&a, &b}) {
+          c->gravity[2] = -9.81;
+          c->viscousRate = 0.3;
+        }
+        b.threads = threads;
+        b.crossScratch = scratch.data();
+        b.crossTouching = touching.data();
+        k.run(m, a);
+        k.run(m, b);
+        ASSERT_TRUE(serial.particles.force() == threaded.particles.force()) << threads << " threads";
+        if (k.rotation) {
+          ASSERT_TRUE(serial.particles.torque() == threaded.particles.torque()) << threads << " threads";
+        }
+      }
+    }
+    if (k.historyWidth > 0) {
+      EXPECT_GT(serial.pairHistory.activeCount(), 50u);
+      for (std::size_t c = 0; c < serial.list.pairCount(); ++c) {
+        for (int q = 0; q < 3; ++q) ASSERT_EQ(serial.pairHistory.values(c)[q], threaded.pairHistory.values(c)[q]);
+      }
+    }
+  });
 }
 #endif
 
 TEST(ForceLoop, LookAheadChangesNoResult) {
   // The prefetching variants of the loop read and write exactly what the plain one does: same forces,
   // torques and springs, serial and (OpenMP builds) threaded, for every law.
-  for (NormalModel normal : {NormalModel::Linear, NormalModel::Hertz}) {
-    for (double friction : {0.0, 0.5}) {
-      for (bool general : {false, true}) {
-        SCOPED_TRACE(::testing::Message()
-                     << "hertz " << (normal == NormalModel::Hertz) << " mu " << friction << " general " << general);
-        const ContactModel m = model(friction, normal);
-        const ForceKernel k = selectForceKernel(m, KernelFlags{}, general);
-        for (int threads : {1, 3}) {
-          if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
-          Fixture plain(true), ahead(true);
-          for (Fixture* f : {&plain, &ahead}) f->list.buildBlocks(threads);
-          std::vector<double> scratch(crossScratchSize(plain.list.crossCount(), k.rotation));
-          std::vector<std::uint8_t> touching(plain.list.crossCount());
-          for (LookAhead mode : {LookAhead::Centres, LookAhead::Contacts, LookAhead::Centres}) {
-            ForceContext a = plain.context(), b = ahead.context();
-            for (ForceContext* c : {&a, &b}) {
-              c->gravity[2] = -9.81;
-              c->threads = threads;
-              c->crossScratch = scratch.data();
-              c->crossTouching = touching.data();
-            }
-            b.lookAhead = mode;
-            k.run(m, a);
-            k.run(m, b);
-            ASSERT_TRUE(plain.particles.force() == ahead.particles.force()) << threads << " threads";
-            if (k.rotation) ASSERT_TRUE(plain.particles.torque() == ahead.particles.torque());
-          }
-          if (k.historyWidth > 0) {
-            for (std::size_t c = 0; c < plain.list.pairCount(); ++c) {
-              for (int q = 0; q < 3; ++q) ASSERT_EQ(plain.pairHistory.values(c)[q], ahead.pairHistory.values(c)[q]);
-            }
-          }
+  forEveryKernel([](const ContactModel& m, const ForceKernel& k) {
+    for (int threads : {1, 3}) {
+      if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
+      Fixture plain(true), ahead(true);
+      for (Fixture* f : {&plain, &ahead}) f->list.buildBlocks(threads);
+      std::vector<double> scratch(crossScratchSize(plain.list.crossCount(), k.rotation));
+      std::vector<std::uint8_t> touching(plain.list.crossCount());
+      for (LookAhead mode : {LookAhead::Centres, LookAhead::Contacts, LookAhead::Centres}) {
+        ForceContext a = plain.context(), b = ahead.context();
+        for (ForceContext* c : {&a, &b}) {
+          c->gravity[2] = -9.81;
+          c->threads = threads;
+          c->crossScratch = scratch.data();
+          c->crossTouching = touching.data();
+        }
+        b.lookAhead = mode;
+        k.run(m, a);
+        k.run(m, b);
+        ASSERT_TRUE(plain.particles.force() == ahead.particles.force()) << threads << " threads";
+        if (k.rotation) ASSERT_TRUE(plain.particles.torque() == ahead.particles.torque());
+      }
+      if (k.historyWidth > 0) {
+        for (std::size_t c = 0; c < plain.list.pairCount(); ++c) {
+          for (int q = 0; q < 3; ++q) ASSERT_EQ(plain.pairHistory.values(c)[q], ahead.pairHistory.values(c)[q]);
         }
       }
     }
-  }
+  });
 }
 
 TEST(ForceLoop, LookAheadOnlyForLargeSystemsAndContactDataOnlyWhenManyCandidatesTouch) {
