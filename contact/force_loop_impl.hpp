@@ -234,7 +234,7 @@ struct PairKernel {
   /// ownedEnd = n (no cross pairs).
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
-    [[maybe_unused]] const Index lastCandidate = offset[end] - 1;  // read only when a row has candidates
+    [[maybe_unused]] const Index lastCandidate = offset[end] - 1;  // used only when a row has candidates
     for (Index i = begin; i < end; ++i) {
       const Row a = loadRow(i);
       double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;

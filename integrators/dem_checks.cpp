@@ -157,7 +157,7 @@ contact::ContactStats DemSimulation::checkStability() const {
   }
 
   if (conservative_) {
-    const double energy = energies().total();
+    const double energy = energies(stats).total();
     const double scale = std::max(std::abs(initialEnergy_), std::numeric_limits<double>::min());
     const double growth = (energy - initialEnergy_) / scale;
     if (growth > settings_.stability.energyTolerance) {

@@ -213,8 +213,9 @@ DemSimulation::DemSimulation(ParticleStore particles, const Box& box, const DemS
   rebuild();
   rejectCoincidentCentres();
   computeForces();
-  initialEnergy_ = energies().total();
-  chooseLookAhead(contactStats());
+  const contact::ContactStats stats = contactStats();
+  initialEnergy_ = energies(stats).total();
+  chooseLookAhead(stats);
 }
 
 void DemSimulation::validateSettings() {
@@ -660,7 +661,7 @@ double DemSimulation::packingFraction() const {
 
 contact::ContactStats DemSimulation::contactStats() const { return contact::measureContacts(model_, context()); }
 
-Energies DemSimulation::energies() const {
+Energies DemSimulation::energies(const contact::ContactStats& stats) const {
   Energies e;
   const Index n = particles_.count();
   const Eigen::Matrix3Xd& v = particles_.velocity();
@@ -676,7 +677,7 @@ Energies DemSimulation::energies() const {
     const Eigen::VectorXd& ii = particles_.inverseInertia();
     for (Index i = 0; i < n; ++i) e.rotational += 0.5 * w.col(i).squaredNorm() / ii[i];
   }
-  e.elastic = contactStats().elasticEnergy;
+  e.elastic = stats.elasticEnergy;
   return e;
 }
 
