@@ -104,6 +104,16 @@ def run_stream(stream, mib, repeat):
         return json.load(open(f.name))["median_gb_per_s"]
 
 
+def writable_dir(path):
+    """Create `path` if needed; exit with a message when that fails or it cannot be written."""
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"dem_limits_report: cannot create {path}: {e.strerror}")
+    if not os.access(path, os.W_OK):
+        sys.exit(f"dem_limits_report: cannot write to {path}")
+
+
 def start_file(polydem, starts, scene, count):
     """DIR/<scene>_<N>.h5, generated (atomically: temporary name, then rename) when missing."""
     path = os.path.join(starts, f"{scene}_{count}.h5")
@@ -226,21 +236,11 @@ def main():
             sys.exit(f"dem_limits_report: unknown scene '{s}' (known: {', '.join(SCENES)})")
     if a.rounds < 1 or any(n < 1000 for n in counts):
         sys.exit("dem_limits_report: --rounds must be >= 1 and every count >= 1000")
-    try:  # checked before the runs, not after them
-        os.makedirs(a.out, exist_ok=True)
-    except OSError as e:
-        sys.exit(f"dem_limits_report: cannot create {a.out}: {e.strerror}")
-    if not os.access(a.out, os.W_OK):
-        sys.exit(f"dem_limits_report: cannot write to {a.out}")
+    writable_dir(a.out)  # checked before the runs, not after them
 
     starts = {}
     if a.starts:
-        try:
-            os.makedirs(a.starts, exist_ok=True)
-        except OSError as e:
-            sys.exit(f"dem_limits_report: cannot create {a.starts}: {e.strerror}")
-        if not os.access(a.starts, os.W_OK):
-            sys.exit(f"dem_limits_report: cannot write to {a.starts}")
+        writable_dir(a.starts)
         for scene in scenes:
             for n in counts:
                 starts[(scene, n)] = os.path.abspath(start_file(a.polydem, a.starts, scene, n))
