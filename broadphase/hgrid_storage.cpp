@@ -104,6 +104,12 @@ CellStore::Sorted CellStore::addLevel(LevelCells& lv, const std::array<int, 3>& 
   return sorted;
 }
 
+void CellStore::reserveCells(std::size_t count) {
+  // An eighth of headroom, not the vector's doubling (up to twice the cells held for the life of the run);
+  // rebuilds whose count stays within it do not allocate.
+  if (count > cells_.capacity()) cells_.reserve(count + count / 8);
+}
+
 void CellStore::listCells(LevelCells& lv, const Sorted& sorted, const std::array<int, 3>& n, std::uint64_t nx,
                           std::uint64_t nxy) {
   const std::size_t b = static_cast<std::size_t>(lv.begin);
@@ -141,6 +147,9 @@ void CellStore::listCells(LevelCells& lv, const Sorted& sorted, const std::array
   lv.cellBegin = cells_.size();
   const std::size_t parts = parallel::chunkCount(threads_, m);
   if (parts == 1) {
+    std::size_t opened = 0;
+    for (std::size_t t = 0; t < m; ++t) opened += opens(t) ? 1 : 0;
+    reserveCells(cells_.size() + opened);
     for (std::size_t t = 0; t < m; ++t) {
       if (!opens(t)) continue;
       if (t > 0) cells_.back().end = static_cast<Index>(b + t);
@@ -159,6 +168,7 @@ void CellStore::listCells(LevelCells& lv, const Sorted& sorted, const std::array
   });
   for (std::size_t p = 0; p < parts; ++p) runStart_[p + 1] += runStart_[p];
   const std::size_t first = cells_.size();
+  reserveCells(first + static_cast<std::size_t>(runStart_[parts]));
   cells_.resize(first + static_cast<std::size_t>(runStart_[parts]));
   parallel::forEachTask(threads_, parts, [&](std::size_t p) {
     std::size_t at = first + static_cast<std::size_t>(runStart_[p]);

@@ -129,6 +129,8 @@ class CellStore {
   /// Append the level's occupied cells (runs of equal keys in `sorted`) to cells_.
   void listCells(LevelCells& lv, const Sorted& sorted, const std::array<int, 3>& n, std::uint64_t nx,
                  std::uint64_t nxy);
+  /// Room for `count` occupied cells in cells_ (grows only).
+  void reserveCells(std::size_t count);
 
   double denseLimit_ = 8.0;
   double rankedLimit_ = 256.0;

@@ -70,9 +70,9 @@ void stableCountingSort(int threads, std::size_t n, std::size_t buckets, Index b
     for (std::size_t i = 0; i < n; ++i) ++start[static_cast<std::size_t>(bucketOf(i)) + 1];
     start[0] = base;
     for (std::size_t b = 0; b < buckets; ++b) start[b + 1] += start[b];
-    if (scratch.size() < buckets) scratch.resize(buckets);
-    std::copy(start, start + buckets, scratch.begin());
-    for (std::size_t i = 0; i < n; ++i) place(i, scratch[static_cast<std::size_t>(bucketOf(i))]++);
+    // start[b + 1] is now the end of bucket b; make it bucket b's first slot (the end of bucket b - 1).
+    std::copy_backward(start, start + buckets, start + buckets + 1);
+    for (std::size_t i = 0; i < n; ++i) place(i, start[static_cast<std::size_t>(bucketOf(i)) + 1]++);
     return;
   }
 #if POLYDEM_WITH_OPENMP

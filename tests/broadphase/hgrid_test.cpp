@@ -3,12 +3,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 #include <random>
 #include <tuple>
 
 #include "broadphase/brute_force.hpp"
+#include "broadphase/parallel.hpp"
 #include "core/errors.hpp"
 #include "tests/support/scene.hpp"
 
@@ -766,6 +769,47 @@ TEST(HGridMemory, ThreadedRebuildsReuseBuffersAndKeepTheIndex) {
   }
   EXPECT_EQ(td.memoryBytes(), bytes);
   EXPECT_EQ(pairs, expected);
+}
+
+}  // namespace
+}  // namespace polydem::broadphase
+
+namespace polydem::broadphase {
+namespace {
+
+// One thread: the dense levels' counting sort needs no histogram beside the cell-start array, and the
+// list of occupied cells grows by an eighth, not by doubling. Uniform volume, size ratio 50, packing 0.6
+// (7 levels by doubling, 5 of them dense): the grid holds 105 bytes per sphere; 129 with a bucket-sized histogram
+// and a doubled cell list.
+TEST(HGridMemory, SerialBuildHoldsNoSortScratchAndFewSpareCells) {
+  const test::Scene scene =
+      test::makeScene({.count = 20000, .distribution = "uniform-volume", .sizeRatio = 50.0, .packing = 0.6, .seed = 4});
+  HGridTopDown td;
+  td.build(scene.spheres(), scene.box, 0.1 * scene.minRadius());
+  td.validate(scene.spheres());
+  EXPECT_LT(static_cast<double>(td.memoryBytes()) / 20000.0, 112.0) << td.describe();
+}
+
+TEST(ParallelCountingSort, OneThreadIsStableAndUsesNoScratch) {
+  const std::size_t n = 5000, buckets = 20000;
+  std::mt19937_64 rng(3);
+  std::vector<Index> bucket(n);
+  for (auto& b : bucket) b = static_cast<Index>(rng() % buckets);
+  std::vector<Index> start(buckets + 1), order(n, -1), scratch;
+  parallel::stableCountingSort(
+      1, n, buckets, 7, [&](std::size_t i) { return bucket[i]; }, start.data(), scratch,
+      [&](std::size_t i, Index slot) { order[static_cast<std::size_t>(slot - 7)] = static_cast<Index>(i); });
+  EXPECT_TRUE(scratch.empty());
+  std::vector<Index> expected(n);
+  std::iota(expected.begin(), expected.end(), 0);
+  std::stable_sort(expected.begin(), expected.end(), [&](Index a, Index b) { return bucket[a] < bucket[b]; });
+  EXPECT_EQ(order, expected);
+  for (std::size_t b = 0; b < buckets; ++b) {
+    const auto count = static_cast<Index>(std::count(bucket.begin(), bucket.end(), static_cast<Index>(b)));
+    ASSERT_EQ(start[b + 1] - start[b], count) << "bucket " << b;
+  }
+  EXPECT_EQ(start[0], 7);
+  EXPECT_EQ(start[buckets], static_cast<Index>(7 + n));
 }
 
 }  // namespace
