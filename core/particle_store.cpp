@@ -106,4 +106,14 @@ void assertionFailed(const char* condition, const char* message, const char* fil
                          " failed: " + message);
 }
 
+std::size_t ParticleStore::adviseHugePages(HugePageAdvice& advice, std::size_t slot) const {
+  for (const Eigen::Matrix3Xd* m : {&position_, &velocity_, &force_, &angularVelocity_, &torque_}) {
+    advice.apply(slot++, m->data(), static_cast<std::size_t>(m->size()) * sizeof(double));
+  }
+  for (const Eigen::VectorXd* v : {&radius_, &inverseMass_, &inverseInertia_}) {
+    advice.apply(slot++, v->data(), static_cast<std::size_t>(v->size()) * sizeof(double));
+  }
+  return slot;
+}
+
 }  // namespace polydem

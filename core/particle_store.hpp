@@ -5,6 +5,7 @@
 #include <span>
 #include <vector>
 
+#include "core/huge_pages.hpp"
 #include "core/types.hpp"
 
 namespace polydem {
@@ -61,6 +62,10 @@ class ParticleStore {
 
   /// Position of the particle with stored id `id`, or -1. O(N); for tests and reports.
   Index slotOfId(Index id) const;
+
+  /// Transparent huge pages for the per-particle arrays (core/huge_pages.hpp), in advice slots from
+  /// `slot` on; returns the next free slot. The ids are left out (no step reads them).
+  std::size_t adviseHugePages(HugePageAdvice& advice, std::size_t slot) const;
 
  private:
   Features features_;

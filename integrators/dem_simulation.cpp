@@ -559,6 +559,14 @@ void DemSimulation::rebuild() {
     pairHistory_.remap(pairKeys_);
     wallHistory_.remap(wallKeys_);
   }
+  adviseHugePages();
+}
+
+void DemSimulation::adviseHugePages() {
+  std::size_t slot = verlet_.adviseHugePages(hugePages_, particles_.adviseHugePages(hugePages_, 0));
+  for (const Eigen::Matrix3Xd* m : {&velocityPredicted_, &angularVelocityPredicted_}) {
+    hugePages_.apply(slot++, m->data(), static_cast<std::size_t>(m->size()) * sizeof(double));
+  }
 }
 
 std::int64_t DemSimulation::advance(std::int64_t steps, bool stopOnInterrupt) {

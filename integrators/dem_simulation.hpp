@@ -30,6 +30,7 @@
 #include "contact/contact_law.hpp"
 #include "contact/force_loop.hpp"
 #include "core/box.hpp"
+#include "core/huge_pages.hpp"
 #include "core/particle_store.hpp"
 #include "integrators/time_step.hpp"
 #include "integrators/verlet_list.hpp"
@@ -216,6 +217,8 @@ class DemSimulation {
   bool conservative() const { return conservative_; }
   /// Heap bytes held by the run: particle arrays, neighbour list, histories, buffers.
   std::size_t memoryBytes() const;
+  /// Bytes of the per-particle arrays and the neighbour list advised to use transparent huge pages.
+  std::size_t hugePageBytesAdvised() const { return hugePages_.advisedBytes(); }
 
  private:
   struct RestoreTag {};
@@ -228,6 +231,9 @@ class DemSimulation {
   contact::ForceContext context();
   contact::ForceContext context() const;
   void rebuild();
+  /// Transparent huge pages for the per-particle arrays and the neighbour list (core/huge_pages.hpp): the
+  /// arrays that are new or have moved since the last call; after every rebuild.
+  void adviseHugePages();
   /// The force loop's look-ahead from the share of the list's candidates that touch (contact::chooseLookAhead).
   void chooseLookAhead(const contact::ContactStats& stats);
   /// Wrap periodic coordinates into [0, L) and check walled ones (SimulationError naming the particle).
@@ -271,6 +277,7 @@ class DemSimulation {
   double timeOrigin_ = 0.0;
   double initialEnergy_ = 0.0;
   PhaseTimes times_;
+  HugePageAdvice hugePages_;
 };
 
 /// Morton (Z-order) permutation of the centres on a 1024^3 grid over the box: order[k] = old slot.

@@ -248,6 +248,7 @@ void FireMinimiser::rebuild() {
     crossTouching_.resize(verlet_.list().crossCount());
   }
   updateMasses();
+  verlet_.adviseHugePages(hugePages_, particles_.adviseHugePages(hugePages_, 0));
   ++rebuildsInCall_;
   broadSeconds_ += seconds(t0, Clock::now());
 }

@@ -230,6 +230,7 @@ class FireMinimiser {
   double growthSinceOuter_ = 0.0;  ///< largest radius growth since the last broad-phase build
   double pairDrift_ = 0.0;         ///< the two largest displacements since the build, summed (listStale())
   double broadSeconds_ = 0.0, forceSeconds_ = 0.0;  // running totals over the object's life
+  HugePageAdvice hugePages_;  ///< the particle arrays and the list (core/huge_pages.hpp), after every rebuild
 };
 
 }  // namespace polydem::integrators

@@ -212,6 +212,13 @@ void VerletList::keys(std::span<const Index> ids, std::vector<std::uint64_t>& pa
   }
 }
 
+std::size_t VerletList::adviseHugePages(HugePageAdvice& advice, std::size_t slot) const {
+  advice.apply(slot++, reference_.data(), static_cast<std::size_t>(reference_.size()) * sizeof(double));
+  advice.apply(slot++, list_.offset.data(), list_.offset.capacity() * sizeof(Index));
+  advice.apply(slot++, list_.neighbour.data(), list_.neighbour.capacity() * sizeof(Index));
+  return slot;
+}
+
 std::size_t VerletList::memoryBytes() const {
   return backend_->memoryBytes() + list_.memoryBytes() + outer_.memoryBytes() + pairs_.memoryBytes() +
          fill_.capacity() * sizeof(Index) +

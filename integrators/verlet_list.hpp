@@ -74,6 +74,9 @@ class VerletList {
   std::int64_t builds() const { return builds_; }
   const broadphase::BroadPhase& backend() const { return *backend_; }
   std::size_t memoryBytes() const;
+  /// Transparent huge pages for the arrays a step reads (the list's rows and the build's centres), in advice
+  /// slots from `slot` on; returns the next free slot (core/huge_pages.hpp).
+  std::size_t adviseHugePages(HugePageAdvice& advice, std::size_t slot) const;
   /// Invariants against the spheres of the last build: rows ascending with j > i, every pair within
   /// the skin listed exactly once (brute-force check, O(N^2): tests only). Throws std::logic_error.
   void validate(const SphereView& spheres, const Box& box) const;

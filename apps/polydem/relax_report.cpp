@@ -7,6 +7,7 @@
 
 #include "apps/polydem/relax.hpp"
 #include "apps/polydem/summary.hpp"
+#include "core/huge_pages.hpp"
 #include "core/interrupt.hpp"
 
 namespace polydem::app {
@@ -18,6 +19,8 @@ double peakMemoryMiB() {
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: KiB
 }
+
+double toMiB(std::size_t bytes) { return static_cast<double>(bytes) / (1024.0 * 1024.0); }
 
 }  // namespace
 
@@ -88,9 +91,13 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
       t.integration * perParticleStep, t.check * perParticleStep);
   fmt::print("neighbour list        {} rebuilds, {} candidate pairs ({:.2f} per particle)\n", sim.rebuilds(),
              sim.neighbours().list().pairCount(), static_cast<double>(sim.neighbours().list().pairCount()) / n);
-  fmt::print("memory                {:.1f} MiB held by the run ({:.0f} bytes/particle), peak RSS {:.1f} MiB\n",
+  const std::optional<std::size_t> hugeBytes = residentHugePageBytes();
+  fmt::print("memory                {:.1f} MiB held by the run ({:.0f} bytes/particle), peak RSS {:.1f} MiB{}\n",
              static_cast<double>(sim.memoryBytes()) / (1024.0 * 1024.0), static_cast<double>(sim.memoryBytes()) / n,
-             peakMemoryMiB());
+             peakMemoryMiB(),
+             hugeBytes ? fmt::format(", {:.0f} MiB on huge pages ({:.0f} MiB advised)", toMiB(*hugeBytes),
+                                     toMiB(sim.hugePageBytesAdvised()))
+                       : std::string());
   if (targetNotReached) fmt::print("TARGET NOT REACHED    {}\n", *targetNotReached);
   SummaryJson& sum = summary();
   if (interrupted) sum.put("report.interrupted_by_signal", interruptSignal());
@@ -125,6 +132,12 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
   sum.put("report.neighbours.candidate_pairs", static_cast<std::int64_t>(sim.neighbours().list().pairCount()));
   sum.put("report.memory.bytes_held", static_cast<std::int64_t>(sim.memoryBytes()));
   sum.put("report.memory.peak_rss_mib", peakMemoryMiB());
+  sum.put("report.memory.huge_pages_advised_mib", toMiB(sim.hugePageBytesAdvised()));
+  if (hugeBytes) {
+    sum.put("report.memory.huge_pages_mib", toMiB(*hugeBytes));
+  } else {
+    sum.undefined("report.memory.huge_pages_mib", "/proc/self/smaps_rollup is not readable here");
+  }
   if (!scene.finalState.empty()) sum.put("outputs.final_state", scene.finalState);
   if (!scene.timeseries.empty()) sum.put("outputs.time_series", scene.timeseries);
   if (!scene.checkpoint.empty()) sum.put("outputs.checkpoint", scene.checkpoint);

@@ -244,7 +244,9 @@ TEST(ForceLoop, LookAheadChangesNoResult) {
         k.run(m, a);
         k.run(m, b);
         ASSERT_TRUE(plain.particles.force() == ahead.particles.force()) << threads << " threads";
-        if (k.rotation) ASSERT_TRUE(plain.particles.torque() == ahead.particles.torque());
+        if (k.rotation) {
+          ASSERT_TRUE(plain.particles.torque() == ahead.particles.torque());
+        }
       }
       if (k.historyWidth > 0) {
         for (std::size_t c = 0; c < plain.list.pairCount(); ++c) {

@@ -1,0 +1,68 @@
+#include "core/huge_pages.hpp"
+
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace polydem {
+
+namespace {
+constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
+#if defined(__linux__) && !defined(MADV_COLLAPSE)
+constexpr int MADV_COLLAPSE = 25;  // Linux 6.1; older headers lack the name
+#endif
+}  // namespace
+
+std::size_t adviseHugePages(const void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  const auto begin = reinterpret_cast<std::uintptr_t>(data);
+  const std::uintptr_t first = (begin + kHugePage - 1) & ~(kHugePage - 1);
+  const std::uintptr_t last = (begin + bytes) & ~(kHugePage - 1);
+  if (data == nullptr || last <= first) return 0;
+  void* const at = reinterpret_cast<void*>(first);
+  const std::size_t length = last - first;
+  if (madvise(at, length, MADV_HUGEPAGE) != 0) return 0;
+  // Pages already written stay small until khugepaged gets to them (minutes for a large array): collapse
+  // them now. Fails harmlessly (EINVAL, EAGAIN, ENOMEM) where the kernel cannot.
+  (void)madvise(at, length, MADV_COLLAPSE);
+  return length;
+#else
+  (void)data;
+  (void)bytes;
+  return 0;
+#endif
+}
+
+std::optional<std::size_t> residentHugePageBytes() {
+  std::ifstream in("/proc/self/smaps_rollup");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("AnonHugePages:", 0) != 0) continue;
+    std::istringstream fields(line.substr(14));
+    std::size_t kib = 0;
+    std::string unit;
+    if (fields >> kib >> unit && unit == "kB") return kib * 1024;
+    return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+void HugePageAdvice::apply(std::size_t slot, const void* data, std::size_t bytes) {
+  if (slot >= slots_.size()) slots_.resize(slot + 1);
+  Range& r = slots_[slot];
+  if (r.data == data && r.bytes == bytes) return;
+  r = {data, bytes, adviseHugePages(data, bytes)};
+}
+
+std::size_t HugePageAdvice::advisedBytes() const {
+  std::size_t total = 0;
+  for (const Range& r : slots_) total += r.advised;
+  return total;
+}
+
+}  // namespace polydem
