@@ -1,7 +1,9 @@
 #include "core/huge_pages.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <fstream>
+#include <new>
 #include <sstream>
 #include <string>
 
@@ -36,6 +38,36 @@ std::size_t adviseHugePages(const void* data, std::size_t bytes) {
   (void)bytes;
   return 0;
 #endif
+}
+
+void* allocateLarge(std::size_t bytes, std::size_t alignment) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  if (bytes >= kHugePageThreshold) {
+    const std::size_t length = (bytes + kHugePage - 1) & ~(kHugePage - 1);
+    // One huge page more than needed, then the unaligned head and the tail given back.
+    void* const raw = mmap(nullptr, length + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (raw == MAP_FAILED) throw std::bad_alloc();
+    const auto begin = reinterpret_cast<std::uintptr_t>(raw);
+    const std::uintptr_t aligned = (begin + kHugePage - 1) & ~(kHugePage - 1);
+    if (aligned > begin) munmap(raw, aligned - begin);
+    const std::uintptr_t end = begin + length + kHugePage;
+    if (end > aligned + length) munmap(reinterpret_cast<void*>(aligned + length), end - (aligned + length));
+    (void)madvise(reinterpret_cast<void*>(aligned), length, MADV_HUGEPAGE);  // a hint: failure is harmless
+    return reinterpret_cast<void*>(aligned);
+  }
+#endif
+  return ::operator new (bytes, std::align_val_t{std::max(alignment, alignof(std::max_align_t))});
+}
+
+void deallocateLarge(void* data, std::size_t bytes, std::size_t alignment) noexcept {
+  if (data == nullptr) return;
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  if (bytes >= kHugePageThreshold) {
+    munmap(data, (bytes + kHugePage - 1) & ~(kHugePage - 1));
+    return;
+  }
+#endif
+  ::operator delete (data, std::align_val_t{std::max(alignment, alignof(std::max_align_t))});
 }
 
 std::optional<std::size_t> residentHugePageBytes() {

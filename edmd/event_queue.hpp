@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "core/huge_pages.hpp"
 #include "core/types.hpp"
 
 namespace polydem::edmd {
@@ -46,10 +47,10 @@ class EventQueue {
   // correct, only possibly misaligned).
   Node* nodes() { return storage_.data() + offset_; }
   const Node* nodes() const { return storage_.data() + offset_; }
-  std::vector<Node> storage_;
+  LargeVector<Node> storage_;
   std::size_t offset_ = 0;
   Index size_ = 0;
-  std::vector<Index> position_;
+  LargeVector<Index> position_;
 };
 
 }  // namespace polydem::edmd

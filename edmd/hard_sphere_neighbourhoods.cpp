@@ -24,7 +24,7 @@ void HardSphereSystem::sortSpatially() {
     keys[static_cast<std::size_t>(i)] = {mortonKey(s.x, box_, 10), i};
   }
   std::sort(keys.begin(), keys.end());
-  std::vector<State> state(state_.size());
+  LargeVector<State> state(state_.size());
   std::vector<Index> external(external_.size());
   std::vector<std::int64_t> runCounts(collisionsInRun_.size());
   Eigen::VectorXd mass(n), inverseMass(n);

@@ -57,6 +57,7 @@
 
 #include "broadphase/broad_phase.hpp"
 #include "core/box.hpp"
+#include "core/huge_pages.hpp"
 #include "core/types.hpp"
 #include "edmd/event_queue.hpp"
 
@@ -369,7 +370,7 @@ class HardSphereSystem {
   std::array<double, 3> wrap_{};  // length on periodic axes, 0 on walled ones
   bool hasWalls_ = false;
 
-  std::vector<State> state_;
+  LargeVector<State> state_;     // the hot arrays on huge pages where the kernel has them (core/huge_pages.hpp)
   std::vector<Index> external_;  // internal slot -> caller's index
   std::int64_t collisionsAtSort_ = 0;
   double skinFloor_ = 1.0;  // current f
@@ -398,7 +399,7 @@ class HardSphereSystem {
   std::vector<std::int64_t> classEntries_;  // C x C: entries of class d in the lists of class c, [c * C + d]
   double periodicLength() const;            // shortest periodic edge (inf if none)
   Eigen::VectorXd mass_, inverseMass_;
-  std::vector<Event> event_;
+  LargeVector<Event> event_;
   EventQueue queue_;
   double growth_ = 0.0;
   double clock_ = 0.0;    // time since the last synchronisation
@@ -427,8 +428,8 @@ class HardSphereSystem {
   void insertNeighbour(Index i, Index j);
   void relocateList(Index i, Index capacity);
   void eraseNeighbour(Index i, Index j);
-  std::vector<Hood> hood_;
-  std::vector<Index> nbData_;
+  LargeVector<Hood> hood_;
+  LargeVector<Index> nbData_;
   Eigen::Matrix3Xd nbCentre_;  // copies of hood_ centre and radius for the broad phase
   Eigen::VectorXd nbRadius_;
   std::vector<Index> added_, removed_;

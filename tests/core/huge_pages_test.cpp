@@ -52,5 +52,23 @@ TEST(HugePages, AdviceRecordsOneArrayPerSlotAndAdvisesOnlyChanges) {
   EXPECT_EQ(advice.advisedBytes(), 0u);
 }
 
+TEST(HugePages, LargeVectorsAreAlignedToHugePagesAndBehaveAsVectors) {
+  LargeVector<std::int64_t> small(100, 7);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(small.data()) % alignof(std::int64_t), 0u);
+  LargeVector<std::int64_t> large(kHugePageThreshold / sizeof(std::int64_t) + 3);
+#if defined(__linux__)
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(large.data()) % kHuge, 0u);
+#endif
+  std::iota(large.begin(), large.end(), std::int64_t{-5});
+  large.resize(3 * large.size());  // grows into a new mapping: contents move with it
+  for (std::size_t k = 0; k < kHugePageThreshold / sizeof(std::int64_t) + 3; ++k) {
+    ASSERT_EQ(large[k], static_cast<std::int64_t>(k) - 5) << k;
+  }
+  EXPECT_EQ(large.back(), 0);
+  large.clear();
+  large.shrink_to_fit();
+  EXPECT_EQ(small[99], 7);
+}
+
 }  // namespace
 }  // namespace polydem
