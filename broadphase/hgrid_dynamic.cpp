@@ -102,8 +102,8 @@ void HGridDynamic::copyRun(Level& lv, Run& run, Slot* slots, Index* id, std::int
 }
 
 void HGridDynamic::layOut(Level& lv) {
-  std::vector<Slot> slots;
-  std::vector<Index> id;
+  LargeVector<Slot> slots;
+  LargeVector<Index> id;
   std::size_t total = 0;
   for (const Run& run : lv.run) total += static_cast<std::size_t>(roomFor(run.size));
   slots.resize(total);

@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "broadphase/broad_phase.hpp"
+#include "core/huge_pages.hpp"
 
 namespace polydem::broadphase {
 
@@ -65,10 +66,10 @@ class HGridDynamic final : public BroadPhase {
     double rmax = 0.0;
     std::array<double, 3> inverseCell{}, cell{};
     std::array<std::int32_t, 3> n{};
-    std::vector<Run> run;            // per cell: its spheres' slots
-    std::vector<std::int32_t> room;  // per cell: slots reserved from run.begin
-    std::vector<Slot> slots;         // the cells' runs, spare room included
-    std::vector<Index> id;           // the sphere in each slot
+    LargeVector<Run> run;            // per cell: its spheres' slots
+    LargeVector<std::int32_t> room;  // per cell: slots reserved from run.begin
+    LargeVector<Slot> slots;         // the cells' runs, spare room included
+    LargeVector<Index> id;           // the sphere in each slot
     std::size_t spheres = 0;
     std::size_t laidOut = 0;  // slots at the last layOut(): relocations past twice that compact the array
   };
@@ -88,9 +89,9 @@ class HGridDynamic final : public BroadPhase {
   std::array<bool, 3> periodic_{};
   std::array<double, 3> length_{};
   std::vector<Level> levels_;
-  std::vector<std::uint8_t> level_;
-  std::vector<std::int32_t> cell_;           // sphere -> cell on its level
-  std::vector<std::int32_t> slot_;           // sphere -> slot on its level
+  LargeVector<std::uint8_t> level_;
+  LargeVector<std::int32_t> cell_;           // sphere -> cell on its level
+  LargeVector<std::int32_t> slot_;           // sphere -> slot on its level
   mutable std::vector<Index> found_;         // a query's candidates, each written, the count advancing for hits
   mutable std::vector<std::int32_t> visit_;  // a query's cells, gathered (and prefetched) before they are read
   mutable std::vector<Index> scratch_;       // findPairs' per-sphere query, kept so steady-state calls do not allocate
