@@ -15,6 +15,8 @@ namespace polydem {
 
 namespace {
 constexpr std::uintptr_t kHugePage = std::uintptr_t{2} << 20;
+constexpr std::uintptr_t pageBelow(std::uintptr_t at) { return at & ~(kHugePage - 1); }
+constexpr std::uintptr_t pageAbove(std::uintptr_t at) { return pageBelow(at + kHugePage - 1); }
 #if defined(__linux__) && !defined(MADV_COLLAPSE)
 constexpr int MADV_COLLAPSE = 25;  // Linux 6.1; older headers lack the name
 #endif
@@ -23,8 +25,8 @@ constexpr int MADV_COLLAPSE = 25;  // Linux 6.1; older headers lack the name
 std::size_t adviseHugePages(const void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
   const auto begin = reinterpret_cast<std::uintptr_t>(data);
-  const std::uintptr_t first = (begin + kHugePage - 1) & ~(kHugePage - 1);
-  const std::uintptr_t last = (begin + bytes) & ~(kHugePage - 1);
+  const std::uintptr_t first = pageAbove(begin);
+  const std::uintptr_t last = pageBelow(begin + bytes);
   if (data == nullptr || last <= first) return 0;
   void* const at = reinterpret_cast<void*>(first);
   const std::size_t length = last - first;
@@ -43,12 +45,12 @@ std::size_t adviseHugePages(const void* data, std::size_t bytes) {
 void* allocateLarge(std::size_t bytes, std::size_t alignment) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
   if (bytes >= kHugePageThreshold) {
-    const std::size_t length = (bytes + kHugePage - 1) & ~(kHugePage - 1);
+    const std::size_t length = pageAbove(bytes);
     // One huge page more than needed, then the unaligned head and the tail given back.
     void* const raw = mmap(nullptr, length + kHugePage, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (raw == MAP_FAILED) throw std::bad_alloc();
     const auto begin = reinterpret_cast<std::uintptr_t>(raw);
-    const std::uintptr_t aligned = (begin + kHugePage - 1) & ~(kHugePage - 1);
+    const std::uintptr_t aligned = pageAbove(begin);
     if (aligned > begin) munmap(raw, aligned - begin);
     const std::uintptr_t end = begin + length + kHugePage;
     if (end > aligned + length) munmap(reinterpret_cast<void*>(aligned + length), end - (aligned + length));
@@ -63,7 +65,7 @@ void deallocateLarge(void* data, std::size_t bytes, std::size_t alignment) noexc
   if (data == nullptr) return;
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
   if (bytes >= kHugePageThreshold) {
-    munmap(data, (bytes + kHugePage - 1) & ~(kHugePage - 1));
+    munmap(data, pageAbove(bytes));
     return;
   }
 #endif
