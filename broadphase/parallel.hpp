@@ -32,7 +32,7 @@ inline std::size_t chunkCount(int threads, std::size_t n, std::size_t minItems =
 
 /// body(k) for k in [0, count): on `threads` threads, one task at a time (dynamic schedule).
 template <class Body>
-void forEachTask(int threads, std::size_t count, Body&& body) {
+void forEachTask([[maybe_unused]] int threads, std::size_t count, Body&& body) {
 #if POLYDEM_WITH_OPENMP
   if (usable(threads) > 1 && count > 1) {
     const auto n = static_cast<std::int64_t>(count);
@@ -60,7 +60,7 @@ void forEachRange(int threads, std::size_t n, std::size_t parts, Body&& body) {
 /// bucketOf is called twice per item.
 template <class BucketOf, class Place>
 void stableCountingSort(int threads, std::size_t n, std::size_t buckets, Index base, BucketOf&& bucketOf, Index* start,
-                        std::vector<Index>& scratch, Place&& place) {
+                        [[maybe_unused]] std::vector<Index>& scratch, Place&& place) {
   constexpr std::size_t kMaxParts = 64;
   std::size_t parts = static_cast<std::size_t>(usable(threads));
   if (n < 4096) parts = 1;
