@@ -104,6 +104,10 @@ struct ForceContext {
   double* crossScratch = nullptr;         ///< threads > 1: crossScratchSize() doubles
   std::uint8_t* crossTouching = nullptr;  ///< threads > 1: one flag per cross pair
   LookAhead lookAhead = LookAhead::None;  ///< prefetching only: results do not depend on it
+  /// Laws without rotation or pair history: a call whose rows hold at least this many candidates on
+  /// average takes the batched loop (contact tests first, then the touching pairs' forces, then the sums
+  /// in the same order). Speed only: the forces are the same bit for bit either way.
+  int batchedMinCandidates = 3;
 };
 
 /// Doubles of ForceContext::crossScratch for `crossPairs` cross pairs: the force (and torque) on i.

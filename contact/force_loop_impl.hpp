@@ -147,7 +147,8 @@ struct PairKernel {
         g2(ctx.gravity[2]),
         viscousRate(ctx.viscousRate),
         dt(ctx.dt),
-        history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr) {}
+        history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr),
+        batchedMinCandidates(ctx.batchedMinCandidates) {}
 
   /// Body force on particle i (gravity, viscous damping; else zero), summed in one fixed order.
   Vec3 bodyForce(Index i) const {
@@ -172,14 +173,15 @@ struct PairKernel {
     }
     return tb;
   }
-  Row loadRow(Index i) const { return Row{x[3 * i], x[3 * i + 1], x[3 * i + 2], r[i], invm[i], load(v, i)}; }
+  [[gnu::always_inline]] Row loadRow(Index i) const {
+    return Row{x[3 * i], x[3 * i + 1], x[3 * i + 2], r[i], invm[i], load(v, i)};
+  }
 
-  /// Candidate pair c = (i, j): false when the spheres do not touch (its history is cleared). Otherwise
-  /// fc = force on i (minus the force on j) and, with rotation, the torques on i and j as -tqi, -tqj.
-  bool pairForce(Index i, const Row& a, Index c, Index j, Vec3& fc, [[maybe_unused]] Vec3& tqi,
-                 [[maybe_unused]] Vec3& tqj) const {
-    double d0 = a.x0 - x[3 * j], d1 = a.x1 - x[3 * j + 1], d2 = a.x2 - x[3 * j + 2];
-    // Minimum image; halfLength is +inf on walled axes, so those never shift.
+  /// d = x_i - x_j, minimum image (halfLength is +inf on walled axes, so those never shift); returns |d|^2.
+  [[gnu::always_inline]] double separation(const Row& a, Index j, double& d0, double& d1, double& d2) const {
+    d0 = a.x0 - x[3 * j];
+    d1 = a.x1 - x[3 * j + 1];
+    d2 = a.x2 - x[3 * j + 2];
     if (d0 > H0)
       d0 -= L0;
     else if (d0 < -H0)
@@ -192,22 +194,50 @@ struct PairKernel {
       d2 -= L2;
     else if (d2 < -H2)
       d2 += L2;
-    const double rsq = d0 * d0 + d1 * d1 + d2 * d2;
+    return d0 * d0 + d1 * d1 + d2 * d2;
+  }
+
+  /// A touching pair's normal, overlap, relative velocity and normal force, from the separation
+  /// d = x_i - x_j (minimum image) and rsq = |d|^2 of the contact test. One definition for both loops.
+  struct Touch {
+    Vec3 nrm;
+    double overlap;
+    Vec3 vrel;
+    NormalForce nf;
+  };
+  [[gnu::always_inline]] Touch touch(const Row& a, Index j, double d0, double d1, double d2, double rsq) const {
+    const double rj = r[j];
+    const double sumR = a.r + rj;
+    const double dist = std::sqrt(rsq);
+    const double invDist = 1.0 / dist;
+    Touch t;
+    t.nrm = Vec3(d0 * invDist, d1 * invDist, d2 * invDist);
+    t.overlap = sumR - dist;
+    const double meff = 1.0 / (a.invm + invm[j]);
+    const double reff = a.r * rj / sumR;
+    t.vrel = a.v - load(v, j);
+    const double rate = -t.vrel.dot(t.nrm);
+    t.nf = Normal::force(params.normal, t.overlap, rate, meff, reff);
+    return t;
+  }
+
+  /// Candidate pair c = (i, j): false when the spheres do not touch (its history is cleared). Otherwise
+  /// fc = force on i (minus the force on j) and, with rotation, the torques on i and j as -tqi, -tqj.
+  bool pairForce(Index i, const Row& a, Index c, Index j, Vec3& fc, [[maybe_unused]] Vec3& tqi,
+                 [[maybe_unused]] Vec3& tqj) const {
+    double d0, d1, d2;
+    const double rsq = separation(a, j, d0, d1, d2);
     const double rj = r[j];
     const double sumR = a.r + rj;
     if (rsq >= sumR * sumR) {
       if constexpr (kHistory > 0) std::fill_n(history + kHistory * static_cast<std::size_t>(c), kHistory, 0.0);
       return false;
     }
-    const double dist = std::sqrt(rsq);
-    const double invDist = 1.0 / dist;
-    const Vec3 nrm(d0 * invDist, d1 * invDist, d2 * invDist);
-    const double overlap = sumR - dist;
-    const double meff = 1.0 / (a.invm + invm[j]);
-    const double reff = a.r * rj / sumR;
-    const Vec3 vrel = a.v - load(v, j);
-    const double rate = -vrel.dot(nrm);
-    const NormalForce nf = Normal::force(params.normal, overlap, rate, meff, reff);
+    const Touch t = touch(a, j, d0, d1, d2, rsq);
+    const Vec3& nrm = t.nrm;
+    const double overlap = t.overlap;
+    const Vec3& vrel = t.vrel;
+    const NormalForce& nf = t.nf;
     fc = nf.force * nrm;
     if constexpr (kRotation) {
       constexpr bool kFull = kLammpsTangential<typename Law::TangentialLaw>;  // lever arms r (LAMMPS), r - d/2
@@ -232,8 +262,19 @@ struct PairKernel {
   /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
   /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
   /// ownedEnd = n (no cross pairs).
+  /// Kernels without rotation or pair history take the batched path (rowsBatched).
+  static constexpr bool kBatched = !kRotation && kHistory == 0;
+
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    if constexpr (kBatched) {
+      // Sparse lists (few candidates per row) keep the one-pass loop: the batches' per-row work is then
+      // more than the mispredicted contact tests they save. Either way the sums are the same.
+      if (std::int64_t{offset[end] - offset[begin]} >= std::int64_t{batchedMinCandidates} * (end - begin)) {
+        rowsBatched<kAhead>(begin, end, ownedEnd, cross);
+        return;
+      }
+    }
     [[maybe_unused]] const Index lastCandidate = offset[end] - 1;  // used only when a row has candidates
     for (Index i = begin; i < end; ++i) {
       const Row a = loadRow(i);
@@ -278,6 +319,115 @@ struct PairKernel {
     }
   }
 
+  /// Candidates per batch of rowsBatched: its buffers (about 12 KiB) stay in the L1 cache.
+  static constexpr Index kBatchCandidates = 256;
+  static constexpr Index kBatchRows = 256;  // rows per batch at most (rows may have no candidates)
+
+  /// The same sums as rows(), in the same order, computed in three passes over a batch of whole rows
+  /// (a row longer than a batch is split across batches): (1) the contact test of every candidate, which
+  /// keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the force of every
+  /// kept pair, independent of each other, so that their square roots and divisions overlap; (3) the
+  /// sums, in the order of rows(): F_i over the row in candidate order, -F scattered to j. Per candidate
+  /// the contact test no longer decides a branch, which mispredicted at a rate of the touching share.
+  template <LookAhead kAhead, class Cross>
+  [[gnu::noinline]] void rowsBatched(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    [[maybe_unused]] const Index lastCandidate = offset[end] - 1;
+    alignas(64) Index keptC[kBatchCandidates];
+    alignas(64) Index keptI[kBatchCandidates];
+    alignas(64) Index keptJ[kBatchCandidates];
+    alignas(64) double keep0[kBatchCandidates];  // separation d = x_i - x_j, then the force on i
+    alignas(64) double keep1[kBatchCandidates];
+    alignas(64) double keep2[kBatchCandidates];
+    alignas(64) double keepSq[kBatchCandidates];  // |d|^2
+    alignas(64) Index rowEntries[kBatchRows];     // kept entries at the end of each whole row
+    double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;       // row sum, carried when a row is split
+    Index i = begin;
+    Index c = begin < end ? offset[begin] : 0;
+    while (i < end) {
+      // Pass 1: whole rows from (i, c) while their candidates fit; a row that does not fit is split.
+      const Index firstRow = i;
+      Index kept = 0, space = kBatchCandidates, wholeRows = 0;
+      bool split = false;
+      while (i < end) {
+        const Row a = loadRow(i);
+        const Index rowEnd = offset[i + 1];
+        const Index stop = rowEnd - c <= space ? rowEnd : c + space;
+        space -= stop - c;
+        for (; c < stop; ++c) {
+          const Index j = neighbour[c];
+          if constexpr (kAhead != LookAhead::None) {
+            const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
+            __builtin_prefetch(x + 3 * ahead);
+            __builtin_prefetch(r + ahead);
+            if constexpr (kAhead == LookAhead::Contacts) {
+              __builtin_prefetch(v + 3 * ahead);
+              __builtin_prefetch(f + 3 * ahead, 1);
+            }
+          }
+          double d0, d1, d2;
+          const double rsq = separation(a, j, d0, d1, d2);
+          const double sumR = a.r + r[j];
+          keptC[kept] = c;
+          keptI[kept] = i;
+          keptJ[kept] = j;
+          keep0[kept] = d0;
+          keep1[kept] = d1;
+          keep2[kept] = d2;
+          keepSq[kept] = rsq;
+          // The test of pairForce (a NaN separation counts as touching there too); cross pairs always kept.
+          kept += static_cast<Index>(!(rsq >= sumR * sumR) | (j >= ownedEnd));
+        }
+        if (stop != rowEnd) {
+          split = true;
+          break;
+        }
+        rowEntries[wholeRows++] = kept;
+        ++i;
+        if (space == 0 || wholeRows == kBatchRows) break;
+      }
+      // Pass 2: the force of every kept pair that is not a cross pair.
+      for (Index e = 0; e < kept; ++e) {
+        const Index j = keptJ[e];
+        if (j >= ownedEnd) continue;
+        const Touch t = touch(loadRow(keptI[e]), j, keep0[e], keep1[e], keep2[e], keepSq[e]);
+        const Vec3 fc = t.nf.force * t.nrm;
+        keep0[e] = fc[0];
+        keep1[e] = fc[1];
+        keep2[e] = fc[2];
+      }
+      // Pass 3: the sums in the order of rows().
+      Index e = 0;
+      const auto sum = [&](Index stopAt) {
+        for (; e < stopAt; ++e) {
+          const Index j = keptJ[e];
+          if (j >= ownedEnd) {
+            if (const double* stored = cross(keptC[e])) {
+              fi0 += stored[0];
+              fi1 += stored[1];
+              fi2 += stored[2];
+            }
+            continue;
+          }
+          fi0 += keep0[e];
+          fi1 += keep1[e];
+          fi2 += keep2[e];
+          f[3 * j] -= keep0[e];
+          f[3 * j + 1] -= keep1[e];
+          f[3 * j + 2] -= keep2[e];
+        }
+      };
+      for (Index k = 0; k < wholeRows; ++k) {
+        sum(rowEntries[k]);
+        const Index row = firstRow + k;
+        f[3 * row] += fi0;
+        f[3 * row + 1] += fi1;
+        f[3 * row + 2] += fi2;
+        fi0 = fi1 = fi2 = 0.0;
+      }
+      if (split) sum(kept);
+    }
+  }
+
   const typename Law::Params& params;
   const double* const x;
   const double* const v;
@@ -293,6 +443,7 @@ struct PairKernel {
   const Index* const neighbour;
   const double L0, L1, L2, H0, H1, H2, g0, g1, g2, viscousRate, dt;
   double* const history;
+  const int batchedMinCandidates;
 };
 
 template <class Law, KernelFlags kFlags>

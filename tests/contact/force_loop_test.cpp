@@ -22,7 +22,7 @@ struct Fixture {
   ContactHistory pairHistory{3}, wallHistory{3};
   Eigen::Matrix3Xd angularVelocity;
 
-  explicit Fixture(bool periodic) {
+  explicit Fixture(bool periodic, double skin = 0.1) {
     scene = test::makeScene({.count = 400,
                              .distribution = "uniform-radius",
                              .sizeRatio = 3.0,
@@ -41,7 +41,10 @@ struct Fixture {
         particles.angularVelocity()(k, i) = g(rng);
       }
     }
-    const std::vector<broadphase::Pair> pairs = test::pairsFrom("brute", scene, 0.1);
+    if (skin < 0.0) {  // as wide as the box allows: every pair when walled, the nearest quarter or so when periodic
+      skin = periodic ? 0.49 * scene.box.length(0) - 2.0 * scene.radius.maxCoeff() : 1e6;
+    }
+    const std::vector<broadphase::Pair> pairs = test::pairsFrom("brute", scene, skin);
     list.offset.assign(static_cast<std::size_t>(particles.count()) + 1, 0);
     for (const auto& p : pairs) ++list.offset[static_cast<std::size_t>(p.i) + 1];
     for (Index i = 0; i < particles.count(); ++i) list.offset[i + 1] += list.offset[i];
@@ -255,6 +258,46 @@ TEST(ForceLoop, LookAheadChangesNoResult) {
       }
     }
   });
+}
+
+TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
+  // Laws without rotation or pair history compute calls with many candidates per row in batches: the
+  // contact tests, then the touching pairs' forces, then the sums in the one-pass loop's order. Forced on
+  // and off, the forces are the same bit for bit: serial and threaded (cross pairs), periodic and walled,
+  // with a Verlet skin and with the widest skin (walled: every pair a candidate, rows of up to 399
+  // candidates, split across batches).
+  int batchedKernels = 0;
+  forEveryKernel([&](const ContactModel& m, const ForceKernel& k) {
+    if (k.rotation || k.historyWidth > 0) return;  // these never batch
+    ++batchedKernels;
+    for (double skin : {0.1, -1.0}) {
+      for (bool periodic : {true, false}) {
+        for (int threads : {1, 3}) {
+          if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
+          Fixture onePass(periodic, skin), batched(periodic, skin);
+          for (Fixture* f : {&onePass, &batched}) f->list.buildBlocks(threads);
+          std::vector<double> scratch(crossScratchSize(onePass.list.crossCount(), false));
+          std::vector<std::uint8_t> touching(onePass.list.crossCount());
+          ForceContext a = onePass.context(), b = batched.context();
+          for (ForceContext* c : {&a, &b}) {
+            c->gravity[2] = -9.81;
+            c->viscousRate = 0.3;
+            c->threads = threads;
+            c->crossScratch = scratch.data();
+            c->crossTouching = touching.data();
+          }
+          a.batchedMinCandidates = std::numeric_limits<int>::max();
+          b.batchedMinCandidates = 0;
+          k.run(m, a);
+          k.run(m, b);
+          ASSERT_TRUE(onePass.particles.force() == batched.particles.force())
+              << k.name << ", skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads << " threads";
+          if (skin < 0.0 && !periodic) ASSERT_EQ(onePass.list.pairCount(), 79800u);  // every pair of 400
+        }
+      }
+    }
+  });
+  EXPECT_GE(batchedKernels, 2);
 }
 
 TEST(ForceLoop, LookAheadOnlyForLargeSystemsAndContactDataOnlyWhenManyCandidatesTouch) {
