@@ -262,6 +262,20 @@ struct PairKernel {
   /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
   /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
   /// ownedEnd = n (no cross pairs).
+  /// The look-ahead: the data of the candidate kLookAheadDistance entries after c (LookAhead::None: nothing).
+  template <LookAhead kAhead>
+  [[gnu::always_inline]] void prefetchAhead(Index c, Index lastCandidate) const {
+    if constexpr (kAhead != LookAhead::None) {
+      const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
+      __builtin_prefetch(x + 3 * ahead);
+      __builtin_prefetch(r + ahead);
+      if constexpr (kAhead == LookAhead::Contacts) {
+        __builtin_prefetch(v + 3 * ahead);
+        __builtin_prefetch(f + 3 * ahead, 1);
+      }
+    }
+  }
+
   /// Kernels without rotation or pair history take the batched path (rowsBatched).
   static constexpr bool kBatched = !kRotation && kHistory == 0;
 
@@ -283,15 +297,7 @@ struct PairKernel {
       const Index rowEnd = offset[i + 1];
       for (Index c = offset[i]; c < rowEnd; ++c) {
         const Index j = neighbour[c];
-        if constexpr (kAhead != LookAhead::None) {
-          const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
-          __builtin_prefetch(x + 3 * ahead);
-          __builtin_prefetch(r + ahead);
-          if constexpr (kAhead == LookAhead::Contacts) {
-            __builtin_prefetch(v + 3 * ahead);
-            __builtin_prefetch(f + 3 * ahead, 1);
-          }
-        }
+        prefetchAhead<kAhead>(c, lastCandidate);
         if (j >= ownedEnd) {
           if (const double* stored = cross(c)) {
             fi0 += stored[0];
@@ -355,15 +361,7 @@ struct PairKernel {
         space -= stop - c;
         for (; c < stop; ++c) {
           const Index j = neighbour[c];
-          if constexpr (kAhead != LookAhead::None) {
-            const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
-            __builtin_prefetch(x + 3 * ahead);
-            __builtin_prefetch(r + ahead);
-            if constexpr (kAhead == LookAhead::Contacts) {
-              __builtin_prefetch(v + 3 * ahead);
-              __builtin_prefetch(f + 3 * ahead, 1);
-            }
-          }
+          prefetchAhead<kAhead>(c, lastCandidate);
           double d0, d1, d2;
           const double rsq = separation(a, j, d0, d1, d2);
           const double sumR = a.r + r[j];
