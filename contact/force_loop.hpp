@@ -77,6 +77,18 @@ inline LookAhead chooseLookAhead(Index count, double touchingShare) {
 }
 
 /// Everything the kernel reads and writes, as raw column-major 3 x N arrays (SI units). Non-owning.
+/// The pair loops of laws without rotation or pair history. Batched loops work in three passes over up to
+/// 256 candidates: the contact test of every candidate (the touching ones kept without a branch), the
+/// forces of the kept pairs (independent of each other), then the sums in the one-pass loop's order.
+enum class Batching {
+  Auto,     ///< Flat where the list has ContactList::row, else Rows where rows hold >= 3 candidates on average, else
+            ///< OnePass
+  OnePass,  ///< row by row, the contact test deciding a branch per candidate
+  Rows,     ///< batches of whole rows, without ContactList::row
+};
+/// Rows per call on average from which Batching::Auto batches whole rows when the list has no row index.
+inline constexpr int kBatchedRowsMinCandidates = 3;
+
 struct ForceContext {
   Index count = 0;
   const double* position = nullptr;      ///< x(t + dt)
@@ -104,10 +116,9 @@ struct ForceContext {
   double* crossScratch = nullptr;         ///< threads > 1: crossScratchSize() doubles
   std::uint8_t* crossTouching = nullptr;  ///< threads > 1: one flag per cross pair
   LookAhead lookAhead = LookAhead::None;  ///< prefetching only: results do not depend on it
-  /// Laws without rotation or pair history: a call whose rows hold at least this many candidates on
-  /// average takes the batched loop (contact tests first, then the touching pairs' forces, then the sums
-  /// in the same order). Speed only: the forces are the same bit for bit either way.
-  int batchedMinCandidates = 3;
+  /// Laws without rotation or pair history (ForceKernel::batched()): which loop sums the pairs. Speed
+  /// only: the forces are the same bit for bit in every loop (tested).
+  Batching batching = Batching::Auto;
 };
 
 /// Doubles of ForceContext::crossScratch for `crossPairs` cross pairs: the force (and torque) on i.
@@ -124,6 +135,8 @@ struct ForceKernel {
   bool rotation = false;  ///< needs angular velocity, torque, inertia
   int historyWidth = 0;   ///< doubles per contact in the histories
   std::string name;       ///< e.g. "linear+frictionless [walls]"
+  /// Takes the batched loops (ForceContext::batching), best over ContactList::row.
+  bool batched() const { return !rotation && historyWidth == 0; }
 };
 
 /// The one runtime -> compile-time switch. `general` forces the most general kernel of the normal law

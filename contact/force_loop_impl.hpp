@@ -148,7 +148,8 @@ struct PairKernel {
         viscousRate(ctx.viscousRate),
         dt(ctx.dt),
         history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr),
-        batchedMinCandidates(ctx.batchedMinCandidates) {}
+        batching(ctx.batching),
+        rowOf(ctx.list->hasRows() ? ctx.list->row.data() : nullptr) {}
 
   /// Body force on particle i (gravity, viscous damping; else zero), summed in one fixed order.
   Vec3 bodyForce(Index i) const {
@@ -282,9 +283,15 @@ struct PairKernel {
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
     if constexpr (kBatched) {
-      // Sparse lists (few candidates per row) keep the one-pass loop: the batches' per-row work is then
-      // more than the mispredicted contact tests they save. Either way the sums are the same.
-      if (std::int64_t{offset[end] - offset[begin]} >= std::int64_t{batchedMinCandidates} * (end - begin)) {
+      // Without a row index, sparse lists (few candidates per row) keep the one-pass loop: batches of whole
+      // rows then cost more per row than the mispredicted contact tests they save. Same sums in every loop.
+      if (batching == Batching::Auto && rowOf != nullptr) {
+        rowsFlat<kAhead>(begin, end, ownedEnd, cross);
+        return;
+      }
+      if (batching == Batching::Rows ||
+          (batching == Batching::Auto &&
+           offset[end] - offset[begin] >= std::int64_t{kBatchedRowsMinCandidates} * (end - begin))) {
         rowsBatched<kAhead>(begin, end, ownedEnd, cross);
         return;
       }
@@ -426,6 +433,86 @@ struct PairKernel {
     }
   }
 
+  /// rowsBatched over the candidates of the rows in one flat loop, with the row of each candidate from
+  /// ContactList::row: no loop per row in the contact tests and the sums. The sums keep the one-pass
+  /// order; a row without a touching pair adds nothing to F_i (the one-pass loop adds +0.0, which changes
+  /// no force: the forces start at +0.0 or a body force and only ever get pair forces subtracted, so none
+  /// is -0.0, the one value +0.0 would change).
+  template <LookAhead kAhead, class Cross>
+  [[gnu::noinline]] void rowsFlat(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    const Index first = offset[begin], last = offset[end];
+    [[maybe_unused]] const Index lastCandidate = last - 1;
+    alignas(64) Index keptC[kBatchCandidates];
+    alignas(64) Index keptI[kBatchCandidates];
+    alignas(64) Index keptJ[kBatchCandidates];
+    alignas(64) double keep0[kBatchCandidates];  // separation d = x_i - x_j, then the force on i
+    alignas(64) double keep1[kBatchCandidates];
+    alignas(64) double keep2[kBatchCandidates];
+    alignas(64) double keepSq[kBatchCandidates];  // |d|^2
+    Index current = begin;                        // the row whose sum F_i is open
+    double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
+    for (Index start = first; start < last; start += kBatchCandidates) {
+      const Index stop = std::min(last, start + kBatchCandidates);
+      Index kept = 0;
+      for (Index c = start; c < stop; ++c) {
+        const Index i = rowOf[c];
+        const Index j = neighbour[c];
+        prefetchAhead<kAhead>(c, lastCandidate);
+        const Row a = loadRow(i);
+        double d0, d1, d2;
+        const double rsq = separation(a, j, d0, d1, d2);
+        const double sumR = a.r + r[j];
+        keptC[kept] = c;
+        keptI[kept] = i;
+        keptJ[kept] = j;
+        keep0[kept] = d0;
+        keep1[kept] = d1;
+        keep2[kept] = d2;
+        keepSq[kept] = rsq;
+        kept += static_cast<Index>(!(rsq >= sumR * sumR) | (j >= ownedEnd));
+      }
+      for (Index e = 0; e < kept; ++e) {
+        const Index j = keptJ[e];
+        if (j >= ownedEnd) continue;
+        const Touch t = touch(loadRow(keptI[e]), j, keep0[e], keep1[e], keep2[e], keepSq[e]);
+        const Vec3 fc = t.nf.force * t.nrm;
+        keep0[e] = fc[0];
+        keep1[e] = fc[1];
+        keep2[e] = fc[2];
+      }
+      for (Index e = 0; e < kept; ++e) {
+        const Index i = keptI[e];
+        if (i != current) {
+          f[3 * current] += fi0;
+          f[3 * current + 1] += fi1;
+          f[3 * current + 2] += fi2;
+          fi0 = fi1 = fi2 = 0.0;
+          current = i;
+        }
+        const Index j = keptJ[e];
+        if (j >= ownedEnd) {
+          if (const double* stored = cross(keptC[e])) {
+            fi0 += stored[0];
+            fi1 += stored[1];
+            fi2 += stored[2];
+          }
+          continue;
+        }
+        fi0 += keep0[e];
+        fi1 += keep1[e];
+        fi2 += keep2[e];
+        f[3 * j] -= keep0[e];
+        f[3 * j + 1] -= keep1[e];
+        f[3 * j + 2] -= keep2[e];
+      }
+    }
+    if (current < end) {
+      f[3 * current] += fi0;
+      f[3 * current + 1] += fi1;
+      f[3 * current + 2] += fi2;
+    }
+  }
+
   const typename Law::Params& params;
   const double* const x;
   const double* const v;
@@ -441,7 +528,8 @@ struct PairKernel {
   const Index* const neighbour;
   const double L0, L1, L2, H0, H1, H2, g0, g1, g2, viscousRate, dt;
   double* const history;
-  const int batchedMinCandidates;
+  const Batching batching;
+  const Index* const rowOf;  ///< ContactList::row, or nullptr when the list has none
 };
 
 template <class Law, KernelFlags kFlags>

@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -262,9 +263,10 @@ TEST(ForceLoop, LookAheadChangesNoResult) {
 
 TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
   // Laws without rotation or pair history compute calls with many candidates per row in batches: the
-  // contact tests, then the touching pairs' forces, then the sums in the one-pass loop's order. Forced on
-  // and off, the forces are the same bit for bit: serial and threaded (cross pairs), periodic and walled,
-  // with a Verlet skin and with the widest skin (walled: every pair a candidate, rows of up to 399
+  // contact tests, then the touching pairs' forces, then the sums in the one-pass loop's order; with
+  // ContactList::row over the candidates of many rows in one flat loop. The three loops give the same
+  // forces byte for byte (signs of zero included): serial and threaded (cross pairs), periodic and
+  // walled, with a Verlet skin and with the widest skin (walled: every pair a candidate, rows of up to 399
   // candidates, split across batches).
   int batchedKernels = 0;
   forEveryKernel([&](const ContactModel& m, const ForceKernel& k) {
@@ -274,24 +276,33 @@ TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
       for (bool periodic : {true, false}) {
         for (int threads : {1, 3}) {
           if (threads > 1 && !POLYDEM_WITH_OPENMP) continue;
-          Fixture onePass(periodic, skin), batched(periodic, skin);
-          for (Fixture* f : {&onePass, &batched}) f->list.buildBlocks(threads);
+          Fixture onePass(periodic, skin), batched(periodic, skin), flat(periodic, skin);
+          for (Fixture* f : {&onePass, &batched, &flat}) f->list.buildBlocks(threads);
+          flat.list.fillRows();
+          ASSERT_TRUE(flat.list.hasRows());
+          ASSERT_FALSE(batched.list.hasRows());
           std::vector<double> scratch(crossScratchSize(onePass.list.crossCount(), false));
           std::vector<std::uint8_t> touching(onePass.list.crossCount());
-          ForceContext a = onePass.context(), b = batched.context();
-          for (ForceContext* c : {&a, &b}) {
-            c->gravity[2] = -9.81;
-            c->viscousRate = 0.3;
-            c->threads = threads;
-            c->crossScratch = scratch.data();
-            c->crossTouching = touching.data();
+          ForceContext a = onePass.context(), b = batched.context(), c = flat.context();
+          for (ForceContext* x : {&a, &b, &c}) {
+            x->gravity[2] = -9.81;
+            x->viscousRate = 0.3;
+            x->threads = threads;
+            x->crossScratch = scratch.data();
+            x->crossTouching = touching.data();
           }
-          a.batchedMinCandidates = std::numeric_limits<int>::max();
-          b.batchedMinCandidates = 0;
+          a.batching = Batching::OnePass;
+          b.batching = Batching::Rows;
+          c.batching = Batching::Auto;  // flat: the list has its row index
           k.run(m, a);
           k.run(m, b);
-          ASSERT_TRUE(onePass.particles.force() == batched.particles.force())
+          k.run(m, c);
+          const auto bytes = sizeof(double) * static_cast<std::size_t>(onePass.particles.force().size());
+          ASSERT_EQ(std::memcmp(onePass.particles.force().data(), batched.particles.force().data(), bytes), 0)
               << k.name << ", skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads << " threads";
+          ASSERT_EQ(std::memcmp(onePass.particles.force().data(), flat.particles.force().data(), bytes), 0)
+              << k.name << ", flat, skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads
+              << " threads";
           if (skin < 0.0 && !periodic) ASSERT_EQ(onePass.list.pairCount(), 79800u);  // every pair of 400
         }
       }
