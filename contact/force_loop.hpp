@@ -76,19 +76,16 @@ inline LookAhead chooseLookAhead(Index count, double touchingShare) {
   return touchingShare >= 0.25 ? LookAhead::Contacts : LookAhead::Centres;
 }
 
-/// Everything the kernel reads and writes, as raw column-major 3 x N arrays (SI units). Non-owning.
-/// The pair loops of laws without rotation or pair history. Batched loops work in three passes over up to
-/// 256 candidates: the contact test of every candidate (the touching ones kept without a branch), the
-/// forces of the kept pairs (independent of each other), then the sums in the one-pass loop's order.
+/// The pair loops of laws without rotation or pair history. The batched loop works in three passes over
+/// up to 256 candidates taken across rows (ContactList::row): the contact test of every candidate (the
+/// touching ones kept without a branch), the forces of the kept pairs (independent of each other), then the
+/// sums in the one-pass loop's order.
 enum class Batching {
-  Auto,     ///< Flat where the list has ContactList::row, else Rows where rows hold >= 3 candidates on average, else
-            ///< OnePass
+  Auto,     ///< batched where the list has ContactList::row, else one pass
   OnePass,  ///< row by row, the contact test deciding a branch per candidate
-  Rows,     ///< batches of whole rows, without ContactList::row
 };
-/// Rows per call on average from which Batching::Auto batches whole rows when the list has no row index.
-inline constexpr int kBatchedRowsMinCandidates = 3;
 
+/// Everything the kernel reads and writes, as raw column-major 3 x N arrays (SI units). Non-owning.
 struct ForceContext {
   Index count = 0;
   const double* position = nullptr;      ///< x(t + dt)

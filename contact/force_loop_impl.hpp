@@ -277,22 +277,14 @@ struct PairKernel {
     }
   }
 
-  /// Kernels without rotation or pair history take the batched path (rowsBatched).
+  /// Kernels without rotation or pair history take the batched loop (rowsFlat) over lists with a row index.
   static constexpr bool kBatched = !kRotation && kHistory == 0;
 
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
     if constexpr (kBatched) {
-      // Without a row index, sparse lists (few candidates per row) keep the one-pass loop: batches of whole
-      // rows then cost more per row than the mispredicted contact tests they save. Same sums in every loop.
       if (batching == Batching::Auto && rowOf != nullptr) {
         rowsFlat<kAhead>(begin, end, ownedEnd, cross);
-        return;
-      }
-      if (batching == Batching::Rows ||
-          (batching == Batching::Auto &&
-           offset[end] - offset[begin] >= std::int64_t{kBatchedRowsMinCandidates} * (end - begin))) {
-        rowsBatched<kAhead>(begin, end, ownedEnd, cross);
         return;
       }
     }
@@ -332,112 +324,18 @@ struct PairKernel {
     }
   }
 
-  /// Candidates per batch of rowsBatched: its buffers (about 12 KiB) stay in the L1 cache.
+  /// Candidates per batch of rowsFlat: its buffers (9 KiB) stay in the L1 cache.
   static constexpr Index kBatchCandidates = 256;
-  static constexpr Index kBatchRows = 256;  // rows per batch at most (rows may have no candidates)
 
-  /// The same sums as rows(), in the same order, computed in three passes over a batch of whole rows
-  /// (a row longer than a batch is split across batches): (1) the contact test of every candidate, which
-  /// keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the force of every
-  /// kept pair, independent of each other, so that their square roots and divisions overlap; (3) the
-  /// sums, in the order of rows(): F_i over the row in candidate order, -F scattered to j. Per candidate
-  /// the contact test no longer decides a branch, which mispredicted at a rate of the touching share.
-  template <LookAhead kAhead, class Cross>
-  [[gnu::noinline]] void rowsBatched(Index begin, Index end, Index ownedEnd, Cross cross) const {
-    [[maybe_unused]] const Index lastCandidate = offset[end] - 1;
-    alignas(64) Index keptC[kBatchCandidates];
-    alignas(64) Index keptI[kBatchCandidates];
-    alignas(64) Index keptJ[kBatchCandidates];
-    alignas(64) double keep0[kBatchCandidates];  // separation d = x_i - x_j, then the force on i
-    alignas(64) double keep1[kBatchCandidates];
-    alignas(64) double keep2[kBatchCandidates];
-    alignas(64) double keepSq[kBatchCandidates];  // |d|^2
-    alignas(64) Index rowEntries[kBatchRows];     // kept entries at the end of each whole row
-    double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;       // row sum, carried when a row is split
-    Index i = begin;
-    Index c = begin < end ? offset[begin] : 0;
-    while (i < end) {
-      // Pass 1: whole rows from (i, c) while their candidates fit; a row that does not fit is split.
-      const Index firstRow = i;
-      Index kept = 0, space = kBatchCandidates, wholeRows = 0;
-      bool split = false;
-      while (i < end) {
-        const Row a = loadRow(i);
-        const Index rowEnd = offset[i + 1];
-        const Index stop = rowEnd - c <= space ? rowEnd : c + space;
-        space -= stop - c;
-        for (; c < stop; ++c) {
-          const Index j = neighbour[c];
-          prefetchAhead<kAhead>(c, lastCandidate);
-          double d0, d1, d2;
-          const double rsq = separation(a, j, d0, d1, d2);
-          const double sumR = a.r + r[j];
-          keptC[kept] = c;
-          keptI[kept] = i;
-          keptJ[kept] = j;
-          keep0[kept] = d0;
-          keep1[kept] = d1;
-          keep2[kept] = d2;
-          keepSq[kept] = rsq;
-          // The test of pairForce (a NaN separation counts as touching there too); cross pairs always kept.
-          kept += static_cast<Index>(!(rsq >= sumR * sumR) | (j >= ownedEnd));
-        }
-        if (stop != rowEnd) {
-          split = true;
-          break;
-        }
-        rowEntries[wholeRows++] = kept;
-        ++i;
-        if (space == 0 || wholeRows == kBatchRows) break;
-      }
-      // Pass 2: the force of every kept pair that is not a cross pair.
-      for (Index e = 0; e < kept; ++e) {
-        const Index j = keptJ[e];
-        if (j >= ownedEnd) continue;
-        const Touch t = touch(loadRow(keptI[e]), j, keep0[e], keep1[e], keep2[e], keepSq[e]);
-        const Vec3 fc = t.nf.force * t.nrm;
-        keep0[e] = fc[0];
-        keep1[e] = fc[1];
-        keep2[e] = fc[2];
-      }
-      // Pass 3: the sums in the order of rows().
-      Index e = 0;
-      const auto sum = [&](Index stopAt) {
-        for (; e < stopAt; ++e) {
-          const Index j = keptJ[e];
-          if (j >= ownedEnd) {
-            if (const double* stored = cross(keptC[e])) {
-              fi0 += stored[0];
-              fi1 += stored[1];
-              fi2 += stored[2];
-            }
-            continue;
-          }
-          fi0 += keep0[e];
-          fi1 += keep1[e];
-          fi2 += keep2[e];
-          f[3 * j] -= keep0[e];
-          f[3 * j + 1] -= keep1[e];
-          f[3 * j + 2] -= keep2[e];
-        }
-      };
-      for (Index k = 0; k < wholeRows; ++k) {
-        sum(rowEntries[k]);
-        const Index row = firstRow + k;
-        f[3 * row] += fi0;
-        f[3 * row + 1] += fi1;
-        f[3 * row + 2] += fi2;
-        fi0 = fi1 = fi2 = 0.0;
-      }
-      if (split) sum(kept);
-    }
-  }
-
-  /// rowsBatched over the candidates of the rows in one flat loop, with the row of each candidate from
-  /// ContactList::row: no loop per row in the contact tests and the sums. The sums keep the one-pass
-  /// order; a row without a touching pair adds nothing to F_i (the one-pass loop adds +0.0, which changes
-  /// no force: the forces start at +0.0 or a body force and only ever get pair forces subtracted, so none
-  /// is -0.0, the one value +0.0 would change).
+  /// The same sums as rows(), in the same order, computed in three passes over batches of candidates
+  /// taken flat across rows (the row of each from ContactList::row): (1) the contact test of every
+  /// candidate, which keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the
+  /// force of every kept pair, independent of each other, so that their square roots and divisions
+  /// overlap; (3) the sums in the order of rows(): F_i over the row in candidate order, -F scattered to j.
+  /// The contact test no longer decides a branch (it mispredicted at a rate of the touching share), and a
+  /// row without a touching pair costs nothing: the one-pass loop adds +0.0 to its F_i, which changes no
+  /// force (the forces start at +0.0 or a body force and only ever get pair forces subtracted, so none is
+  /// -0.0, the one value +0.0 would change).
   template <LookAhead kAhead, class Cross>
   [[gnu::noinline]] void rowsFlat(Index begin, Index end, Index ownedEnd, Cross cross) const {
     const Index first = offset[begin], last = offset[end];

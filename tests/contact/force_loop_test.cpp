@@ -262,12 +262,13 @@ TEST(ForceLoop, LookAheadChangesNoResult) {
 }
 
 TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
-  // Laws without rotation or pair history compute calls with many candidates per row in batches: the
-  // contact tests, then the touching pairs' forces, then the sums in the one-pass loop's order; with
-  // ContactList::row over the candidates of many rows in one flat loop. The three loops give the same
-  // forces byte for byte (signs of zero included): serial and threaded (cross pairs), periodic and
-  // walled, with a Verlet skin and with the widest skin (walled: every pair a candidate, rows of up to 399
-  // candidates, split across batches).
+  // Laws without rotation or pair history sum the pairs of a list with a row index (ContactList::row) in
+  // batches of candidates taken across rows: the contact tests, then the touching pairs' forces, then the
+  // sums in the one-pass loop's order. The batched loop (the default where the list has the index), the
+  // one-pass loop forced, and the one-pass loop of a list without the index give the same forces byte for
+  // byte (signs of zero included): serial and threaded (cross pairs), periodic and walled, with a Verlet
+  // skin and with the widest skin (walled: every pair a candidate, rows of up to 399 candidates, split
+  // across batches).
   int batchedKernels = 0;
   forEveryKernel([&](const ContactModel& m, const ForceKernel& k) {
     if (k.rotation || k.historyWidth > 0) return;  // these never batch
@@ -292,8 +293,8 @@ TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
             x->crossTouching = touching.data();
           }
           a.batching = Batching::OnePass;
-          b.batching = Batching::Rows;
-          c.batching = Batching::Auto;  // flat: the list has its row index
+          b.batching = Batching::Auto;  // one pass: the list has no row index
+          c.batching = Batching::Auto;  // batched: the list has its row index
           k.run(m, a);
           k.run(m, b);
           k.run(m, c);
@@ -301,9 +302,11 @@ TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
           ASSERT_EQ(std::memcmp(onePass.particles.force().data(), batched.particles.force().data(), bytes), 0)
               << k.name << ", skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads << " threads";
           ASSERT_EQ(std::memcmp(onePass.particles.force().data(), flat.particles.force().data(), bytes), 0)
-              << k.name << ", flat, skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads
+              << k.name << ", batched, skin " << skin << (periodic ? ", periodic, " : ", walled, ") << threads
               << " threads";
-          if (skin < 0.0 && !periodic) ASSERT_EQ(onePass.list.pairCount(), 79800u);  // every pair of 400
+          if (skin < 0.0 && !periodic) {
+            ASSERT_EQ(onePass.list.pairCount(), 79800u);  // every pair of 400
+          }
         }
       }
     }
