@@ -54,12 +54,4 @@ void ContactList::buildBlocks(int blocks) {
   targetOffset[0] = 0;
 }
 
-void ContactList::fillRows() {
-  row.resize(neighbour.size());
-  const Index n = particleCount();
-  for (Index i = 0; i < n; ++i) {
-    for (Index c = offset[i]; c < offset[i + 1]; ++c) row[static_cast<std::size_t>(c)] = i;
-  }
-}
-
 }  // namespace polydem::contact

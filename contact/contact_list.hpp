@@ -25,9 +25,6 @@ struct ContactList {
   std::vector<Index> neighbour;       ///< j per candidate pair; row i lists j > i ascending
   std::vector<Index> wallParticle;    ///< particle per wall candidate, ascending
   std::vector<std::int8_t> wallFace;  ///< face per wall candidate (see kFaceCount)
-  /// i per candidate (empty unless fillRows() ran): lets the batched force loop run over the candidates of
-  /// many rows in one flat loop.
-  std::vector<Index> row;
   // Thread blocks (empty unless buildBlocks() ran).
   std::vector<Index> blockStart;    ///< B + 1 row boundaries
   std::vector<Index> crossStart;    ///< B + 1 starts into the cross arrays, by the block of i
@@ -39,9 +36,6 @@ struct ContactList {
   /// Split the rows into `blocks` contiguous blocks of about equal work (candidates + 1 per row) and
   /// list the cross pairs. O(N + P); buffers only grow, so steady-state rebuilds do not allocate.
   void buildBlocks(int blocks);
-  /// Fill `row` from `offset`. O(P); the buffer only grows.
-  void fillRows();
-  bool hasRows() const { return row.size() == neighbour.size(); }
   Index blockCount() const { return blockStart.empty() ? 0 : static_cast<Index>(blockStart.size() - 1); }
   std::size_t crossCount() const { return crossPair.size(); }
 
@@ -49,7 +43,7 @@ struct ContactList {
   std::size_t pairCount() const { return neighbour.size(); }
   std::size_t wallCount() const { return wallParticle.size(); }
   std::size_t memoryBytes() const {
-    return offset.capacity() * sizeof(Index) + neighbour.capacity() * sizeof(Index) + row.capacity() * sizeof(Index) +
+    return offset.capacity() * sizeof(Index) + neighbour.capacity() * sizeof(Index) +
            wallParticle.capacity() * sizeof(Index) + wallFace.capacity() +
            (blockStart.capacity() + crossStart.capacity() + crossPair.capacity() + crossRow.capacity() +
             targetOffset.capacity() + byTarget.capacity() + crossTarget_.capacity()) *

@@ -77,11 +77,11 @@ inline LookAhead chooseLookAhead(Index count, double touchingShare) {
 }
 
 /// The pair loops of laws without rotation or pair history. The batched loop works in three passes over
-/// up to 256 candidates taken across rows (ContactList::row): the contact test of every candidate (the
-/// touching ones kept without a branch), the forces of the kept pairs (independent of each other), then the
-/// sums in the one-pass loop's order.
+/// up to 256 candidates taken across rows: the contact test of every candidate (the touching ones kept
+/// without a branch), the forces of the kept pairs (independent of each other), then the sums in the
+/// one-pass loop's order.
 enum class Batching {
-  Auto,     ///< batched where the list has ContactList::row, else one pass
+  Auto,     ///< batched
   OnePass,  ///< row by row, the contact test deciding a branch per candidate
 };
 
@@ -132,7 +132,7 @@ struct ForceKernel {
   bool rotation = false;  ///< needs angular velocity, torque, inertia
   int historyWidth = 0;   ///< doubles per contact in the histories
   std::string name;       ///< e.g. "linear+frictionless [walls]"
-  /// Takes the batched loops (ForceContext::batching), best over ContactList::row.
+  /// Takes the batched loop (ForceContext::batching).
   bool batched() const { return !rotation && historyWidth == 0; }
 };
 

@@ -148,8 +148,7 @@ struct PairKernel {
         viscousRate(ctx.viscousRate),
         dt(ctx.dt),
         history(kHistory > 0 ? ctx.pairHistory->values(0) : nullptr),
-        batching(ctx.batching),
-        rowOf(ctx.list->hasRows() ? ctx.list->row.data() : nullptr) {}
+        batching(ctx.batching) {}
 
   /// Body force on particle i (gravity, viscous damping; else zero), summed in one fixed order.
   Vec3 bodyForce(Index i) const {
@@ -283,7 +282,7 @@ struct PairKernel {
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
     if constexpr (kBatched) {
-      if (batching == Batching::Auto && rowOf != nullptr) {
+      if (batching == Batching::Auto) {
         rowsFlat<kAhead>(begin, end, ownedEnd, cross);
         return;
       }
@@ -324,18 +323,17 @@ struct PairKernel {
     }
   }
 
-  /// Candidates per batch of rowsFlat: its buffers (9 KiB) stay in the L1 cache.
+  /// Candidates per batch of rowsFlat: its buffers (12 KiB) stay in the L1 cache.
   static constexpr Index kBatchCandidates = 256;
 
   /// The same sums as rows(), in the same order, computed in three passes over batches of candidates
-  /// taken flat across rows (the row of each from ContactList::row): (1) the contact test of every
-  /// candidate, which keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the
-  /// force of every kept pair, independent of each other, so that their square roots and divisions
-  /// overlap; (3) the sums in the order of rows(): F_i over the row in candidate order, -F scattered to j.
-  /// The contact test no longer decides a branch (it mispredicted at a rate of the touching share), and a
-  /// row without a touching pair costs nothing: the one-pass loop adds +0.0 to its F_i, which changes no
-  /// force (the forces start at +0.0 or a body force and only ever get pair forces subtracted, so none is
-  /// -0.0, the one value +0.0 would change).
+  /// taken flat across rows: (0) the row of each candidate of the batch, from the row starts; (1) the contact test of
+  /// every candidate, which keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the force
+  /// of every kept pair, independent of each other, so that their square roots and divisions overlap; (3) the sums in
+  /// the order of rows(): F_i over the row in candidate order, -F scattered to j. The contact test no longer decides a
+  /// branch (it mispredicted at a rate of the touching share), and a row without a touching pair costs nothing: the
+  /// one-pass loop adds +0.0 to its F_i, which changes no force (the forces start at +0.0 or a body force and only ever
+  /// get pair forces subtracted, so none is -0.0, the one value +0.0 would change).
   template <LookAhead kAhead, class Cross>
   [[gnu::noinline]] void rowsFlat(Index begin, Index end, Index ownedEnd, Cross cross) const {
     const Index first = offset[begin], last = offset[end];
@@ -347,13 +345,23 @@ struct PairKernel {
     alignas(64) double keep1[kBatchCandidates];
     alignas(64) double keep2[kBatchCandidates];
     alignas(64) double keepSq[kBatchCandidates];  // |d|^2
+    alignas(64) Index rowOf[kBatchCandidates];    // the row starting at each candidate of the batch, or -1
     Index current = begin;                        // the row whose sum F_i is open
+    Index nextRow = begin;                        // the first row not yet placed in a batch
+    Index carried = begin;                        // the row of the candidate before the batch
     double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
     for (Index start = first; start < last; start += kBatchCandidates) {
       const Index stop = std::min(last, start + kBatchCandidates);
+      const Index width = stop - start;
+      // Pass 0: every row starting inside the batch marks its first slot (an empty row marks the slot of the
+      // next row, which overwrites it: rows go in ascending order); the contact tests below take the running
+      // maximum of the marks as the row of each candidate.
+      std::fill_n(rowOf, width, Index{-1});
+      for (; nextRow < end && offset[nextRow] < stop; ++nextRow) rowOf[offset[nextRow] - start] = nextRow;
       Index kept = 0;
       for (Index c = start; c < stop; ++c) {
-        const Index i = rowOf[c];
+        carried = std::max(carried, rowOf[c - start]);
+        const Index i = carried;
         const Index j = neighbour[c];
         prefetchAhead<kAhead>(c, lastCandidate);
         const Row a = loadRow(i);
@@ -427,7 +435,6 @@ struct PairKernel {
   const double L0, L1, L2, H0, H1, H2, g0, g1, g2, viscousRate, dt;
   double* const history;
   const Batching batching;
-  const Index* const rowOf;  ///< ContactList::row, or nullptr when the list has none
 };
 
 template <class Law, KernelFlags kFlags>

@@ -258,7 +258,6 @@ void DemSimulation::selectKernel() {
   flags_.gravity = settings_.gravity != Eigen::Vector3d::Zero();
   flags_.viscous = settings_.viscousDamping > 0.0;
   kernel_ = contact::selectForceKernel(model_, flags_, settings_.generalKernel);
-  verlet_.setRowIndex(kernel_.batched());
   pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
   wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
   const auto& p = model_.parameters();

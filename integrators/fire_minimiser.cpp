@@ -139,7 +139,6 @@ FireMinimiser::FireMinimiser(ParticleStore particles, const Box& box, const Mini
   contact::KernelFlags flags;
   flags.walls = box_.hasWalls();
   kernel_ = contact::selectForceKernel(model_, flags);
-  verlet_.setRowIndex(kernel_.batched());
   pairHistory_ = contact::ContactHistory(kernel_.historyWidth);
   wallHistory_ = contact::ContactHistory(kernel_.historyWidth);
   if (p.normal == contact::NormalModel::Hertz || p.scaling == contact::StiffnessScaling::Radius) {

@@ -126,11 +126,6 @@ double VerletList::outerDrift(const Eigen::Matrix3Xd& centres) const {
 
 void VerletList::finish(const SphereView& spheres) {
   if (blocks_ > 1) list_.buildBlocks(blocks_);
-  if (rowIndex_) {
-    list_.fillRows();
-  } else {
-    list_.row.clear();
-  }
   reference_ = spheres.centre;  // same size after the first build: no allocation
   referenceRadius_ = spheres.radius;
 }
@@ -221,7 +216,6 @@ std::size_t VerletList::adviseHugePages(HugePageAdvice& advice, std::size_t slot
   advice.apply(slot++, reference_.data(), static_cast<std::size_t>(reference_.size()) * sizeof(double));
   advice.apply(slot++, list_.offset.data(), list_.offset.capacity() * sizeof(Index));
   advice.apply(slot++, list_.neighbour.data(), list_.neighbour.capacity() * sizeof(Index));
-  advice.apply(slot++, list_.row.data(), list_.row.capacity() * sizeof(Index));
   return slot;
 }
 

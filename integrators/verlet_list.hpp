@@ -55,10 +55,6 @@ class VerletList {
   /// Also split the list into `blocks` thread blocks (ContactList::buildBlocks) at every build, for the
   /// threaded force loop; 0 or 1 = none (the default). Takes effect at the next build.
   void setBlocks(int blocks) { blocks_ = blocks; }
-  /// Also fill ContactList::row (the row of every candidate) at every build, for the batched force loop
-  /// of laws without rotation or history (contact::ForceKernel::batched()); off by default (4 bytes per
-  /// candidate). Takes effect at the next build.
-  void setRowIndex(bool on) { rowIndex_ = on; }
   /// OpenMP threads for the build (>= 1; ConfigError otherwise): the backend's and the CSR's. The list is
   /// identical for every thread count. Takes effect at the next build.
   void setThreads(int threads);
@@ -100,7 +96,6 @@ class VerletList {
   contact::ContactList outer_;  ///< two levels: the candidates within outerSkin_ at the last build
   Eigen::Matrix3Xd outerReference_;
   int blocks_ = 0;
-  bool rowIndex_ = false;
   int threads_ = 1;
   contact::ContactList list_;
   Eigen::Matrix3Xd reference_;

@@ -490,11 +490,6 @@ void DistributedDem::buildList(const Eigen::Matrix3Xd& centres, const Eigen::Vec
     list_.neighbour[static_cast<std::size_t>(fill_[static_cast<std::size_t>(p.i)]++)] = p.j;
   for (Index i = 0; i < n_; ++i)
     std::sort(list_.neighbour.begin() + list_.offset[i], list_.neighbour.begin() + list_.offset[i + 1]);
-  if (kernel_.batched()) {
-    list_.fillRows();  // the batched force loop's row index
-  } else {
-    list_.row.clear();
-  }
 
   // Wall candidates of owned particles, in the serial order (slot, then faces -x +x -y +y -z +z).
   list_.wallParticle.clear();
