@@ -81,7 +81,7 @@ inline LookAhead chooseLookAhead(Index count, double touchingShare) {
 /// without a branch), the forces of the kept pairs (independent of each other), then the sums in the
 /// one-pass loop's order.
 enum class Batching {
-  Auto,     ///< batched
+  Batched,  ///< the batched loop (the default)
   OnePass,  ///< row by row, the contact test deciding a branch per candidate
 };
 
@@ -115,7 +115,7 @@ struct ForceContext {
   LookAhead lookAhead = LookAhead::None;  ///< prefetching only: results do not depend on it
   /// Laws without rotation or pair history (ForceKernel::batched()): which loop sums the pairs. Speed
   /// only: the forces are the same bit for bit in every loop (tested).
-  Batching batching = Batching::Auto;
+  Batching batching = Batching::Batched;
 };
 
 /// Doubles of ForceContext::crossScratch for `crossPairs` cross pairs: the force (and torque) on i.
@@ -132,7 +132,7 @@ struct ForceKernel {
   bool rotation = false;  ///< needs angular velocity, torque, inertia
   int historyWidth = 0;   ///< doubles per contact in the histories
   std::string name;       ///< e.g. "linear+frictionless [walls]"
-  /// Takes the batched loop (ForceContext::batching).
+  /// Takes the batched loop (ForceContext::batching); PairKernel::kBatched is the same rule at compile time.
   bool batched() const { return !rotation && historyWidth == 0; }
 };
 

@@ -258,10 +258,6 @@ struct PairKernel {
     return true;
   }
 
-  /// The serial order for rows [begin, end): each row sums its pairs into F_i and scatters -F to j.
-  /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
-  /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
-  /// ownedEnd = n (no cross pairs).
   /// The look-ahead: the data of the candidate kLookAheadDistance entries after c (LookAhead::None: nothing).
   template <LookAhead kAhead>
   [[gnu::always_inline]] void prefetchAhead(Index c, Index lastCandidate) const {
@@ -276,13 +272,18 @@ struct PairKernel {
     }
   }
 
-  /// Kernels without rotation or pair history take the batched loop (rowsFlat) over lists with a row index.
+  /// Kernels without rotation or pair history take the batched loop (rowsFlat) unless the context asks for
+  /// the one-pass loop; ForceKernel::batched() states the same rule at run time.
   static constexpr bool kBatched = !kRotation && kHistory == 0;
 
+  /// The serial order for rows [begin, end): each row sums its pairs into F_i and scatters -F to j.
+  /// Pairs with j >= `ownedEnd` are cross pairs already computed: `cross(c)` returns a pointer to their
+  /// stored force (and torque term), or nullptr when they do not touch. The serial loop passes
+  /// ownedEnd = n (no cross pairs).
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
     if constexpr (kBatched) {
-      if (batching == Batching::Auto) {
+      if (batching == Batching::Batched) {
         rowsFlat<kAhead>(begin, end, ownedEnd, cross);
         return;
       }

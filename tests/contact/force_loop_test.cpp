@@ -288,7 +288,7 @@ TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
             x->crossTouching = touching.data();
           }
           a.batching = Batching::OnePass;
-          EXPECT_EQ(b.batching, Batching::Auto);  // the default batches
+          EXPECT_EQ(b.batching, Batching::Batched);  // the default
           k.run(m, a);
           k.run(m, b);
           const auto bytes = sizeof(double) * static_cast<std::size_t>(onePass.particles.force().size());
