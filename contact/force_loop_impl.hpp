@@ -110,6 +110,12 @@ inline Vec3 lawTangentialForce(const typename Tangential::Params& p, const Norma
 /// Each loop function keeps its own local copy: nothing takes the serial loop's copy's address, so the
 /// compiler keeps it in registers. (With one set of locals shared by both loops, the OpenMP region's
 /// capture let every force store alias them, and the serial loop got 15-20% slower.)
+/// The row loops' cross-pair callback of the serial loop, which has none: its type removes the cross-pair
+/// tests at compile time.
+struct NoCross {
+  const double* operator()(Index) const { return nullptr; }
+};
+
 template <class Law, KernelFlags kFlags>
 struct PairKernel {
   using Normal = typename Law::NormalLaw;
@@ -206,17 +212,24 @@ struct PairKernel {
     NormalForce nf;
   };
   [[gnu::always_inline]] Touch touch(const Row& a, Index j, double d0, double d1, double d2, double rsq) const {
-    const double rj = r[j];
-    const double sumR = a.r + rj;
+    const Vec3 vrel = a.v - load(v, j);
+    return touchFrom(a.r, r[j], a.invm + invm[j], vrel[0], vrel[1], vrel[2], d0, d1, d2, rsq);
+  }
+
+  /// The arithmetic of touch() from the pair's gathered inputs: radii, 1/m_i + 1/m_j, v_i - v_j, d and |d|^2.
+  /// Without a load through an index, so that the batched loop's compiler vectorises it over the kept pairs.
+  [[gnu::always_inline]] Touch touchFrom(double ri, double rj, double invmSum, double vr0, double vr1, double vr2,
+                                         double d0, double d1, double d2, double rsq) const {
+    const double sumR = ri + rj;
     const double dist = std::sqrt(rsq);
     const double invDist = 1.0 / dist;
     Touch t;
     t.nrm = Vec3(d0 * invDist, d1 * invDist, d2 * invDist);
     t.overlap = sumR - dist;
-    const double meff = 1.0 / (a.invm + invm[j]);
-    const double reff = a.r * rj / sumR;
-    t.vrel = a.v - load(v, j);
-    const double rate = -t.vrel.dot(t.nrm);
+    const double meff = 1.0 / invmSum;
+    const double reff = ri * rj / sumR;
+    t.vrel = Vec3(vr0, vr1, vr2);
+    const double rate = -((vr0 * t.nrm[0] + vr1 * t.nrm[1]) + vr2 * t.nrm[2]);
     t.nf = Normal::force(params.normal, t.overlap, rate, meff, reff);
     return t;
   }
@@ -282,6 +295,7 @@ struct PairKernel {
   /// ownedEnd = n (no cross pairs).
   template <LookAhead kAhead = LookAhead::None, class Cross>
   void rows(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    constexpr bool kCross = !std::is_same_v<Cross, NoCross>;
     if constexpr (kBatched) {
       if (batching == Batching::Batched) {
         rowsFlat<kAhead>(begin, end, ownedEnd, cross);
@@ -297,7 +311,7 @@ struct PairKernel {
       for (Index c = offset[i]; c < rowEnd; ++c) {
         const Index j = neighbour[c];
         prefetchAhead<kAhead>(c, lastCandidate);
-        if (j >= ownedEnd) {
+        if (kCross && j >= ownedEnd) {
           if (const double* stored = cross(c)) {
             fi0 += stored[0];
             fi1 += stored[1];
@@ -337,6 +351,7 @@ struct PairKernel {
   /// get pair forces subtracted, so none is -0.0, the one value +0.0 would change).
   template <LookAhead kAhead, class Cross>
   [[gnu::noinline]] void rowsFlat(Index begin, Index end, Index ownedEnd, Cross cross) const {
+    constexpr bool kCross = !std::is_same_v<Cross, NoCross>;
     const Index first = offset[begin], last = offset[end];
     [[maybe_unused]] const Index lastCandidate = last - 1;
     alignas(64) Index keptC[kBatchCandidates];
@@ -345,11 +360,17 @@ struct PairKernel {
     alignas(64) double keep0[kBatchCandidates];  // separation d = x_i - x_j, then the force on i
     alignas(64) double keep1[kBatchCandidates];
     alignas(64) double keep2[kBatchCandidates];
-    alignas(64) double keepSq[kBatchCandidates];  // |d|^2
-    alignas(64) Index rowOf[kBatchCandidates];    // the row starting at each candidate of the batch, or -1
-    Index current = begin;                        // the row whose sum F_i is open
-    Index nextRow = begin;                        // the first row not yet placed in a batch
-    Index carried = begin;                        // the row of the candidate before the batch
+    alignas(64) double keepSq[kBatchCandidates];    // |d|^2
+    alignas(64) double gatherRi[kBatchCandidates];  // pass 2's inputs: r_i, r_j, 1/m_i + 1/m_j, v_i - v_j
+    alignas(64) double gatherRj[kBatchCandidates];
+    alignas(64) double gatherInvm[kBatchCandidates];
+    alignas(64) double gatherV0[kBatchCandidates];
+    alignas(64) double gatherV1[kBatchCandidates];
+    alignas(64) double gatherV2[kBatchCandidates];
+    alignas(64) Index rowOf[kBatchCandidates];  // the row starting at each candidate of the batch, or -1
+    Index current = begin;                      // the row whose sum F_i is open
+    Index nextRow = begin;                      // the first row not yet placed in a batch
+    Index carried = begin;                      // the row of the candidate before the batch
     double fi0 = 0.0, fi1 = 0.0, fi2 = 0.0;
     for (Index start = first; start < last; start += kBatchCandidates) {
       const Index stop = std::min(last, start + kBatchCandidates);
@@ -369,23 +390,33 @@ struct PairKernel {
         double d0, d1, d2;
         const double rsq = separation(a, j, d0, d1, d2);
         const double sumR = a.r + r[j];
-        keptC[kept] = c;
+        if constexpr (kCross) keptC[kept] = c;
         keptI[kept] = i;
         keptJ[kept] = j;
         keep0[kept] = d0;
         keep1[kept] = d1;
         keep2[kept] = d2;
         keepSq[kept] = rsq;
-        kept += static_cast<Index>(!(rsq >= sumR * sumR) | (j >= ownedEnd));
+        kept += static_cast<Index>(!(rsq >= sumR * sumR) | (kCross && j >= ownedEnd));
+      }
+      // Pass 2: the forces of the kept pairs, (a) gathering each pair's inputs into columns, (b) the arithmetic of
+      // touch() over the columns, two pairs per instruction where the law's expressions vectorise (the square
+      // roots and divisions included). A cross pair's force is computed too, from valid data, and not used.
+      for (Index e = 0; e < kept; ++e) {
+        const Index i = keptI[e], j = keptJ[e];
+        gatherRi[e] = r[i];
+        gatherRj[e] = r[j];
+        gatherInvm[e] = invm[i] + invm[j];
+        gatherV0[e] = v[3 * i] - v[3 * j];
+        gatherV1[e] = v[3 * i + 1] - v[3 * j + 1];
+        gatherV2[e] = v[3 * i + 2] - v[3 * j + 2];
       }
       for (Index e = 0; e < kept; ++e) {
-        const Index j = keptJ[e];
-        if (j >= ownedEnd) continue;
-        const Touch t = touch(loadRow(keptI[e]), j, keep0[e], keep1[e], keep2[e], keepSq[e]);
-        const Vec3 fc = t.nf.force * t.nrm;
-        keep0[e] = fc[0];
-        keep1[e] = fc[1];
-        keep2[e] = fc[2];
+        const Touch t = touchFrom(gatherRi[e], gatherRj[e], gatherInvm[e], gatherV0[e], gatherV1[e], gatherV2[e],
+                                  keep0[e], keep1[e], keep2[e], keepSq[e]);
+        keep0[e] = t.nf.force * t.nrm[0];
+        keep1[e] = t.nf.force * t.nrm[1];
+        keep2[e] = t.nf.force * t.nrm[2];
       }
       for (Index e = 0; e < kept; ++e) {
         const Index i = keptI[e];
@@ -397,7 +428,7 @@ struct PairKernel {
           current = i;
         }
         const Index j = keptJ[e];
-        if (j >= ownedEnd) {
+        if (kCross && j >= ownedEnd) {
           if (const double* stored = cross(keptC[e])) {
             fi0 += stored[0];
             fi1 += stored[1];
@@ -462,7 +493,7 @@ void serialPairs(const typename Law::Params& params, const ForceContext& ctx) {
       std::memset(ctx.torque, 0, sizeof(double) * n3);
     }
   }
-  const auto none = [](Index) -> const double* { return nullptr; };
+  const NoCross none;
   switch (ctx.lookAhead) {
     case LookAhead::None:
       k.template rows<LookAhead::None>(0, ctx.count, ctx.count, none);

@@ -105,19 +105,30 @@ double halfKick(Index n, int threads, double dt, const KickArrays& k, const Drif
   [[maybe_unused]] double* vp = k.predicted;
   [[maybe_unused]] double* x = d.position;
   [[maybe_unused]] const double* ref = d.reference;
+  // Each particle's values are read into registers first and stored last: the arrays may alias as far as the
+  // compiler knows, and a store followed by a reload of the same value would chain the three components.
   auto body = [=](Index i) {
     const double h = half * im[i];
+    double fa[3], va[3], xa[3];
+    for (int c = 0; c < 3; ++c) {
+      fa[c] = f[3 * i + c];
+      va[c] = v[3 * i + c];
+      if constexpr (kDrift) xa[c] = x[3 * i + c];
+    }
     double dsq = 0.0;
     for (int c = 0; c < 3; ++c) {
-      const Index a = 3 * i + c;
-      if constexpr (kClose) v[a] += h * f[a];
-      v[a] += h * f[a];
-      if constexpr (kDrift) x[a] += dt * v[a];
-      if constexpr (kPredict) vp[a] = v[a] + h * f[a];
+      if constexpr (kClose) va[c] += h * fa[c];
+      va[c] += h * fa[c];
       if constexpr (kDrift) {
-        const double dx = x[a] - ref[a];
+        xa[c] += dt * va[c];
+        const double dx = xa[c] - ref[3 * i + c];
         dsq += dx * dx;
       }
+    }
+    for (int c = 0; c < 3; ++c) {
+      v[3 * i + c] = va[c];
+      if constexpr (kDrift) x[3 * i + c] = xa[c];
+      if constexpr (kPredict) vp[3 * i + c] = va[c] + h * fa[c];
     }
     return dsq;
   };
