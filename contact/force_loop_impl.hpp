@@ -188,17 +188,17 @@ struct PairKernel {
     d0 = a.x0 - x[3 * j];
     d1 = a.x1 - x[3 * j + 1];
     d2 = a.x2 - x[3 * j + 2];
-    if (d0 > H0)
+    if (d0 > H0) [[unlikely]]
       d0 -= L0;
-    else if (d0 < -H0)
+    else if (d0 < -H0) [[unlikely]]
       d0 += L0;
-    if (d1 > H1)
+    if (d1 > H1) [[unlikely]]
       d1 -= L1;
-    else if (d1 < -H1)
+    else if (d1 < -H1) [[unlikely]]
       d1 += L1;
-    if (d2 > H2)
+    if (d2 > H2) [[unlikely]]
       d2 -= L2;
-    else if (d2 < -H2)
+    else if (d2 < -H2) [[unlikely]]
       d2 += L2;
     return d0 * d0 + d1 * d1 + d2 * d2;
   }
