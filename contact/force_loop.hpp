@@ -39,8 +39,8 @@
 // candidate kLookAheadDistance entries further down the list (across row ends): its centre and radius,
 // and with LookAhead::Contacts also its velocity and force, which only touching pairs read. The prefetches
 // change no result. DemSimulation chooses: none below kLookAheadMinCount particles (the arrays fit in
-// this machine's L2), Contacts when at least a quarter of the candidates touched at the last stability
-// check, else Centres.
+// this machine's L2), Centres for the batched loop, and for the one-pass loop Contacts when at least a
+// quarter of the candidates touched at the last stability check, else Centres.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -70,9 +70,14 @@ enum class LookAhead : std::uint8_t {
 inline constexpr Index kLookAheadDistance = 16;     ///< list entries (the one distance measured)
 inline constexpr Index kLookAheadMinCount = 32768;  ///< below this, LookAhead::None
 
-/// The look-ahead for `count` particles of which `touchingShare` of the list's candidates touched.
-inline LookAhead chooseLookAhead(Index count, double touchingShare) {
+/// The look-ahead for `count` particles of which `touchingShare` of the list's candidates touched, for a
+/// kernel that takes the batched loop (`batched`, ForceKernel::batched()) or the one-pass loop. The batched
+/// loop reads v_j and F_j of its touching pairs only after the whole batch's contact tests, by which time their
+/// lines have had a batch's time to arrive; prefetching them too was slower in every measured scene (equal and
+/// uniform-volume spheres, 5 x 10^4 to 10^6, 0.08 to 4 candidates per row), so it takes Centres.
+inline LookAhead chooseLookAhead(Index count, double touchingShare, bool batched) {
   if (count < kLookAheadMinCount) return LookAhead::None;
+  if (batched) return LookAhead::Centres;
   return touchingShare >= 0.25 ? LookAhead::Contacts : LookAhead::Centres;
 }
 

@@ -934,7 +934,7 @@ contact::ForceContext DistributedDem::context() {
   c.crossScratch = crossScratch_.data();
   c.crossTouching = crossTouching_.data();
   // Centres only: a rank does not track its touching share (the choice changes no result).
-  c.lookAhead = contact::chooseLookAhead(n_, 0.0);
+  c.lookAhead = contact::chooseLookAhead(n_, 0.0, kernel_.batched());
   return c;
 }
 

@@ -305,11 +305,16 @@ TEST(ForceLoop, BatchedLoopIsBitIdenticalToTheOnePassLoop) {
 }
 
 TEST(ForceLoop, LookAheadOnlyForLargeSystemsAndContactDataOnlyWhenManyCandidatesTouch) {
-  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount - 1, 1.0), LookAhead::None);
-  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.0), LookAhead::Centres);
-  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.2), LookAhead::Centres);
-  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.25), LookAhead::Contacts);
-  EXPECT_EQ(chooseLookAhead(10 * kLookAheadMinCount, 0.9), LookAhead::Contacts);
+  for (const bool batched : {false, true}) {
+    EXPECT_EQ(chooseLookAhead(kLookAheadMinCount - 1, 1.0, batched), LookAhead::None);
+    EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.0, batched), LookAhead::Centres);
+    EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.2, batched), LookAhead::Centres);
+  }
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.25, false), LookAhead::Contacts);
+  EXPECT_EQ(chooseLookAhead(10 * kLookAheadMinCount, 0.9, false), LookAhead::Contacts);
+  // The batched loop reads the touching pairs' velocities and forces after the batch's contact tests.
+  EXPECT_EQ(chooseLookAhead(kLookAheadMinCount, 0.25, true), LookAhead::Centres);
+  EXPECT_EQ(chooseLookAhead(10 * kLookAheadMinCount, 0.9, true), LookAhead::Centres);
 }
 
 TEST(ForceLoop, MeasureReportsTheLargestOverlap) {
