@@ -36,11 +36,11 @@
 // Look-ahead (ForceContext::lookAhead): a row lists its j > i, and in Morton order some of them lie far
 // ahead in memory, beyond the caches once the arrays outgrow them: the load of x_j then stalls the loop
 // (about half the force time at 10^6 spheres, perf). The loop therefore prefetches the data of the
-// candidate kLookAheadDistance entries further down the list (across row ends): its centre and radius,
-// and with LookAhead::Contacts also its velocity and force, which only touching pairs read. The prefetches
-// change no result. DemSimulation chooses: none below kLookAheadMinCount particles (the arrays fit in
-// this machine's L2), Centres for the batched loop, and for the one-pass loop Contacts when at least a
-// quarter of the candidates touched at the last stability check, else Centres.
+// candidate kLookAheadDistance (batched loop: kBatchedLookAheadDistance) entries further down the list (across row
+// ends): its centre and radius, and with LookAhead::Contacts also its velocity and force, which only touching pairs
+// read. The prefetches change no result. DemSimulation chooses: none below kLookAheadMinCount particles (the arrays fit
+// in this machine's L2), Centres for the batched loop, and for the one-pass loop Contacts when at least a quarter of
+// the candidates touched at the last stability check, else Centres.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -67,7 +67,11 @@ enum class LookAhead : std::uint8_t {
   Centres,   ///< x_j and r_j, read by every candidate's overlap test
   Contacts,  ///< also v_j and F_j, read and written by touching candidates
 };
-inline constexpr Index kLookAheadDistance = 16;     ///< list entries (the one distance measured)
+inline constexpr Index kLookAheadDistance = 16;  ///< list entries, the one-pass loop
+/// The batched loop's distance: its contact tests run faster than the one-pass loop's candidates, so a line
+/// needs more entries' time to arrive (at 10^6 spheres 64 beat 16 by 8-13% on equal and uniform-volume omega 10
+/// spheres; 32 and 128 were no better, and at 5 x 10^4 every distance gave the same).
+inline constexpr Index kBatchedLookAheadDistance = 64;
 inline constexpr Index kLookAheadMinCount = 32768;  ///< below this, LookAhead::None
 
 /// The look-ahead for `count` particles of which `touchingShare` of the list's candidates touched, for a

@@ -271,11 +271,11 @@ struct PairKernel {
     return true;
   }
 
-  /// The look-ahead: the data of the candidate kLookAheadDistance entries after c (LookAhead::None: nothing).
-  template <LookAhead kAhead>
+  /// The look-ahead: the data of the candidate kDistance entries after c (LookAhead::None: nothing).
+  template <LookAhead kAhead, Index kDistance = kLookAheadDistance>
   [[gnu::always_inline]] void prefetchAhead(Index c, Index lastCandidate) const {
     if constexpr (kAhead != LookAhead::None) {
-      const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kLookAheadDistance, lastCandidate)]);
+      const auto ahead = static_cast<std::size_t>(neighbour[std::min(c + kDistance, lastCandidate)]);
       __builtin_prefetch(x + 3 * ahead);
       __builtin_prefetch(r + ahead);
       if constexpr (kAhead == LookAhead::Contacts) {
@@ -385,7 +385,7 @@ struct PairKernel {
         carried = std::max(carried, rowOf[c - start]);
         const Index i = carried;
         const Index j = neighbour[c];
-        prefetchAhead<kAhead>(c, lastCandidate);
+        prefetchAhead<kAhead, kBatchedLookAheadDistance>(c, lastCandidate);
         const Row a = loadRow(i);
         double d0, d1, d2;
         const double rsq = separation(a, j, d0, d1, d2);
