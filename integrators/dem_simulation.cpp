@@ -372,8 +372,8 @@ DemSimulation::DemSimulation(const DemState& state, const DemSettings& settings,
 
 void DemSimulation::chooseLookAhead(const contact::ContactStats& stats) {
   const auto candidates = static_cast<double>(std::max<std::size_t>(1, verlet_.list().pairCount()));
-  lookAhead_ = contact::chooseLookAhead(particles_.count(), static_cast<double>(stats.contacts) / candidates,
-                                        kernel_.batched());
+  lookAhead_ =
+      contact::chooseLookAhead(particles_.count(), static_cast<double>(stats.contacts) / candidates, kernel_.batched());
 }
 
 DemState DemSimulation::state() const {
