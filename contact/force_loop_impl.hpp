@@ -106,16 +106,16 @@ inline Vec3 lawTangentialForce(const typename Tangential::Params& p, const Norma
   }
 }
 
-/// What both pair loops read, copied out of the context once, and the work per particle and per pair.
-/// Each loop function keeps its own local copy: nothing takes the serial loop's copy's address, so the
-/// compiler keeps it in registers. (With one set of locals shared by both loops, the OpenMP region's
-/// capture let every force store alias them, and the serial loop got 15-20% slower.)
 /// The row loops' cross-pair callback of the serial loop, which has none: its type removes the cross-pair
 /// tests at compile time.
 struct NoCross {
   const double* operator()(Index) const { return nullptr; }
 };
 
+/// What both pair loops read, copied out of the context once, and the work per particle and per pair.
+/// Each loop function keeps its own local copy: nothing takes the serial loop's copy's address, so the
+/// compiler keeps it in registers. (With one set of locals shared by both loops, the OpenMP region's
+/// capture let every force store alias them, and the serial loop got 15-20% slower.)
 template <class Law, KernelFlags kFlags>
 struct PairKernel {
   using Normal = typename Law::NormalLaw;
