@@ -338,7 +338,7 @@ struct PairKernel {
     }
   }
 
-  /// Candidates per batch of rowsFlat: its buffers (12 KiB) stay in the L1 cache.
+  /// Candidates per batch of rowsFlat: its buffers (24 KiB) fit in the L1 data cache (32 KiB here).
   static constexpr Index kBatchCandidates = 256;
 
   /// The same sums as rows(), in the same order, computed in three passes over batches of candidates
