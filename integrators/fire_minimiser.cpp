@@ -36,6 +36,11 @@ struct LargestTwo {
     second = std::max(second, std::min(dsq, first));
     first = std::max(first, dsq);
   }
+  /// The two largest of both (exact: the same values whatever the split).
+  void merge(const LargestTwo& o) {
+    add(o.first);
+    add(o.second);
+  }
   double drift() const { return std::sqrt(first) + std::sqrt(second); }
 };
 
@@ -43,12 +48,48 @@ struct LargestTwo {
 /// kicked |v|^2 without a second pass), and the largest |F_i|^2.
 struct FireSums {
   double power = 0.0, vv = 0.0, ff = 0.0, fvm = 0.0, ffm = 0.0, fmaxSq = 0.0;
+  void add(const FireSums& o) {
+    power += o.power;
+    vv += o.vv;
+    ff += o.ff;
+    fvm += o.fvm;
+    ffm += o.ffm;
+    fmaxSq = std::max(fmaxSq, o.fmaxSq);
+  }
 };
 
-/// One pass over the particles, even and odd ones into separate sums added at the end: the pass is the
-/// sums' add latency (one chain per sum) rather than its loads, and two chains halve it (g++ then also packs
-/// the two particles' arithmetic into SSE2 pairs). The order is fixed, so the result is too.
-FireSums reduceForFire(Index n, const double* f, const double* v, const double* im) {
+/// FIRE's two passes run over fixed chunks of particles, each chunk's sums kept apart and added in chunk
+/// order afterwards: the result is the same for any thread count (the threads only share out the chunks).
+constexpr Index kFireChunk = 4096;
+
+Index fireChunks(Index n) { return (n + kFireChunk - 1) / kFireChunk; }
+
+#if POLYDEM_WITH_OPENMP
+/// Out of line, as in dem_simulation.cpp: the OpenMP region takes the address of its copy of `body`,
+/// which would otherwise make the serial loop reload the captured values after each store.
+template <class Body>
+[[gnu::noinline]] void forChunksThreaded(Index chunks, int threads, Body body) {
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+  for (Index c = 0; c < chunks; ++c) body(c);
+}
+#endif
+
+/// body(c) for every chunk c, on `threads` OpenMP threads when > 1.
+template <class Body>
+void forChunks(Index n, [[maybe_unused]] int threads, Body body) {
+  const Index chunks = fireChunks(n);
+#if POLYDEM_WITH_OPENMP
+  if (threads > 1 && chunks > 1) {
+    forChunksThreaded(chunks, threads, body);
+    return;
+  }
+#endif
+  for (Index c = 0; c < chunks; ++c) body(c);
+}
+
+/// The sums of particles [begin, end): even and odd ones into separate sums added at the end (two add
+/// chains per sum instead of one; four measured the same). The order is fixed, so the result is too.
+FireSums reduceForFire(Index begin, Index end, const double* f, const double* v, const double* im) {
   double power[2] = {}, vv[2] = {}, ff[2] = {}, fvm[2] = {}, ffm[2] = {}, fmax[2] = {};
   auto particle = [&](Index i, int lane) {
     const double* fi = f + 3 * i;
@@ -62,12 +103,12 @@ FireSums reduceForFire(Index n, const double* f, const double* v, const double* 
     ffm[lane] += fsq * im[i] * im[i];
     fmax[lane] = std::max(fmax[lane], fsq);
   };
-  Index i = 0;
-  for (; i + 1 < n; i += 2) {
+  Index i = begin;
+  for (; i + 1 < end; i += 2) {
     particle(i, 0);
     particle(i + 1, 1);
   }
-  if (i < n) particle(i, 0);
+  if (i < end) particle(i, 0);
   return {power[0] + power[1], vv[0] + vv[1],   ff[0] + ff[1],
           fvm[0] + fvm[1],     ffm[0] + ffm[1], std::max(fmax[0], fmax[1])};
 }
@@ -625,8 +666,21 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     }
   }
 
+  // FIRE's passes by chunks (forChunks): per-chunk sums and displacement maxima, combined in chunk order.
+  const int threads = settings_.threads;
+  const Index chunks = fireChunks(n);
+  std::vector<FireSums> sumsOfChunk(static_cast<std::size_t>(chunks));  // once per call, not per step
+  std::vector<LargestTwo> largestOfChunk(static_cast<std::size_t>(chunks));
+  FireSums* chunkSums = sumsOfChunk.data();
+  LargestTwo* chunkLargest = largestOfChunk.data();
   for (std::int64_t it = 0;; ++it) {
-    auto [power, vv, ff, fvm, ffm, fmaxSq] = reduceForFire(n, f, v, im);
+    forChunks(n, threads, [=](Index c) {
+      const Index begin = c * kFireChunk;
+      chunkSums[c] = reduceForFire(begin, std::min(n, begin + kFireChunk), f, v, im);
+    });
+    FireSums sums;
+    for (Index c = 0; c < chunks; ++c) sums.add(chunkSums[c]);
+    auto [power, vv, ff, fvm, ffm, fmaxSq] = sums;
     if (!std::isfinite(ff) || !std::isfinite(vv)) {
       throw SimulationError(fmt::format("minimiser: non-finite forces or velocities at FIRE step {}", it));
     }
@@ -671,29 +725,35 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
     const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
     const double* ref = verlet_.reference().data();
-    LargestTwo largest;  // squared displacements since the build
-    for (Index i = 0; i < n; ++i) {
-      // Registers first, stores last: the arrays may alias as far as the compiler knows (see halfKick).
-      const double h = dt * im[i];
-      double fa[3], va[3], xa[3];
-      for (int c = 0; c < 3; ++c) {
-        fa[c] = f[3 * i + c];
-        va[c] = v[3 * i + c];
-        xa[c] = x[3 * i + c];
+    forChunks(n, threads, [=](Index c) {
+      LargestTwo largest;  // squared displacements since the build
+      const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
+      for (Index i = begin; i < end; ++i) {
+        // Registers first, stores last: the arrays may alias as far as the compiler knows (see halfKick).
+        const double h = dt * im[i];
+        double fa[3], va[3], xa[3];
+        for (int k = 0; k < 3; ++k) {
+          fa[k] = f[3 * i + k];
+          va[k] = v[3 * i + k];
+          xa[k] = x[3 * i + k];
+        }
+        double dsq = 0.0;
+        for (int k = 0; k < 3; ++k) {
+          va[k] = keep * (va[k] + h * fa[k]) + toward * fa[k];
+          xa[k] += dt * va[k];
+          const double dx = xa[k] - ref[3 * i + k];
+          dsq += dx * dx;
+        }
+        for (int k = 0; k < 3; ++k) {
+          v[3 * i + k] = va[k];
+          x[3 * i + k] = xa[k];
+        }
+        largest.add(dsq);
       }
-      double dsq = 0.0;
-      for (int c = 0; c < 3; ++c) {
-        va[c] = keep * (va[c] + h * fa[c]) + toward * fa[c];
-        xa[c] += dt * va[c];
-        const double dx = xa[c] - ref[3 * i + c];
-        dsq += dx * dx;
-      }
-      for (int c = 0; c < 3; ++c) {
-        v[3 * i + c] = va[c];
-        x[3 * i + c] = xa[c];
-      }
-      largest.add(dsq);
-    }
+      chunkLargest[c] = largest;
+    });
+    LargestTwo largest;
+    for (Index c = 0; c < chunks; ++c) largest.merge(chunkLargest[c]);
     pairDrift_ = largest.drift();
     if (listStale()) rebuild();
     computeForces();
