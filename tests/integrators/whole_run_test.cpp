@@ -541,52 +541,58 @@ TEST(VerletList, CsrRowsAreCanonicalForEveryBackend) {
 // unwrapped) is the list a broad-phase build gives on the moved state, rows, order and walls, as long as the
 // moves stay within the outer margin (outerDrift() <= outer - skin).
 TEST(VerletList, RefinedListEqualsTheBuiltOne) {
-  Box box;
-  std::vector<double> radii;
-  for (int i = 0; i < 2000; ++i) radii.push_back(1.0 + 3.0 * ((i * 13) % 17) / 16.0);
-  ParticleStore p =
-      test::latticeGas(radii, 0.45, box, 21, false, {Boundary::Periodic, Boundary::Wall, Boundary::Periodic});
-  VerletList twoLevel(broadphase::makeBroadPhase("hgrid-td"), 1.0);
-  twoLevel.setOuterSkin(3.0);
-  const Eigen::Matrix3Xd built = p.position();
-  twoLevel.build(p.spheres(), box);
-  ASSERT_TRUE(twoLevel.twoLevel());
-  EXPECT_EQ(twoLevel.outerDrift(p.position()), 0.0);
-  std::uint64_t state = 99;
-  auto uniform = [&] {
-    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(state >> 11) * 0x1.0p-53;
-  };
-  for (int round = 0; round < 3; ++round) {
-    SCOPED_TRACE(round);
-    for (Index i = 0; i < p.count(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        double& x = p.position()(k, i);
-        const double moved = built(k, i) + 1.1 * (uniform() - 0.5);  // |dx| < 0.96: two < 2 = outer - skin
-        x = built(k, i);
-        if (box.periodic(k) || (moved - p.radius()[i] > 0.0 && moved + p.radius()[i] < box.length(k))) x = moved;
+  // 2600 spheres: enough rows for the threaded build to split them (3 threads: the outer list is counted and
+  // filled in three parts); the refined list must not depend on it.
+  for (const int threads : {1, 3}) {
+    SCOPED_TRACE(threads);
+    Box box;
+    std::vector<double> radii;
+    for (int i = 0; i < 2600; ++i) radii.push_back(1.0 + 3.0 * ((i * 13) % 17) / 16.0);
+    ParticleStore p =
+        test::latticeGas(radii, 0.45, box, 21, false, {Boundary::Periodic, Boundary::Wall, Boundary::Periodic});
+    VerletList twoLevel(broadphase::makeBroadPhase("hgrid-td"), 1.0);
+    twoLevel.setThreads(threads);
+    twoLevel.setOuterSkin(3.0);
+    const Eigen::Matrix3Xd built = p.position();
+    twoLevel.build(p.spheres(), box);
+    ASSERT_TRUE(twoLevel.twoLevel());
+    EXPECT_EQ(twoLevel.outerDrift(p.position()), 0.0);
+    std::uint64_t state = 99;
+    auto uniform = [&] {
+      state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<double>(state >> 11) * 0x1.0p-53;
+    };
+    for (int round = 0; round < 3; ++round) {
+      SCOPED_TRACE(round);
+      for (Index i = 0; i < p.count(); ++i) {
+        for (int k = 0; k < 3; ++k) {
+          double& x = p.position()(k, i);
+          const double moved = built(k, i) + 1.1 * (uniform() - 0.5);  // |dx| < 0.96: two < 2 = outer - skin
+          x = built(k, i);
+          if (box.periodic(k) || (moved - p.radius()[i] > 0.0 && moved + p.radius()[i] < box.length(k))) x = moved;
+        }
       }
+      ASSERT_LE(twoLevel.outerDrift(p.position()), 2.0);
+      twoLevel.refine(p.spheres(), box);
+      ParticleStore wrapped = p;
+      for (Index i = 0; i < p.count(); ++i) wrapped.position().col(i) = box.wrap(p.position().col(i));
+      VerletList oneLevel(broadphase::makeBroadPhase("linked-cell"), 1.0);
+      oneLevel.build(wrapped.spheres(), box);
+      EXPECT_GT(oneLevel.list().pairCount(), 300u);
+      EXPECT_GT(oneLevel.list().wallCount(), 10u);
+      EXPECT_EQ(twoLevel.list().offset, oneLevel.list().offset);
+      EXPECT_EQ(twoLevel.list().neighbour, oneLevel.list().neighbour);
+      EXPECT_EQ(twoLevel.list().wallParticle, oneLevel.list().wallParticle);
+      EXPECT_EQ(twoLevel.list().wallFace, oneLevel.list().wallFace);
     }
-    ASSERT_LE(twoLevel.outerDrift(p.position()), 2.0);
-    twoLevel.refine(p.spheres(), box);
-    ParticleStore wrapped = p;
-    for (Index i = 0; i < p.count(); ++i) wrapped.position().col(i) = box.wrap(p.position().col(i));
-    VerletList oneLevel(broadphase::makeBroadPhase("linked-cell"), 1.0);
-    oneLevel.build(wrapped.spheres(), box);
-    EXPECT_GT(oneLevel.list().pairCount(), 300u);
-    EXPECT_GT(oneLevel.list().wallCount(), 10u);
-    EXPECT_EQ(twoLevel.list().offset, oneLevel.list().offset);
-    EXPECT_EQ(twoLevel.list().neighbour, oneLevel.list().neighbour);
-    EXPECT_EQ(twoLevel.list().wallParticle, oneLevel.list().wallParticle);
-    EXPECT_EQ(twoLevel.list().wallFace, oneLevel.list().wallFace);
+    EXPECT_EQ(twoLevel.builds(), 1);
+    EXPECT_EQ(twoLevel.refines(), 3);
+    VerletList one(broadphase::makeBroadPhase("linked-cell"), 1.0);
+    EXPECT_THROW(one.setOuterSkin(0.9), ConfigError);
+    EXPECT_THROW(one.setOuterSkin(std::nan("")), ConfigError);
+    one.build(p.spheres(), box);
+    EXPECT_THROW(one.refine(p.spheres(), box), std::logic_error);
   }
-  EXPECT_EQ(twoLevel.builds(), 1);
-  EXPECT_EQ(twoLevel.refines(), 3);
-  VerletList one(broadphase::makeBroadPhase("linked-cell"), 1.0);
-  EXPECT_THROW(one.setOuterSkin(0.9), ConfigError);
-  EXPECT_THROW(one.setOuterSkin(std::nan("")), ConfigError);
-  one.build(p.spheres(), box);
-  EXPECT_THROW(one.refine(p.spheres(), box), std::logic_error);
 }
 
 TEST(VerletList, RebuildsWhenSomeParticleMovedHalfTheSkin) {
