@@ -206,7 +206,7 @@ class FireMinimiser {
   bool listStale() const;
   void computeForces();
   /// x += a d, then the list check and the forces (a conjugate-gradient move).
-  void moveAlong(const std::vector<double>& d, double a);
+  void moveAlong(const double* d, double a);
   void updateMasses();
   /// Stiffness scale of pair (i, j) at the reference overlap (N/m).
   double pairStiffness(double ri, double rj) const;
@@ -221,6 +221,7 @@ class FireMinimiser {
   std::vector<double> crossScratch_;
   std::vector<std::uint8_t> crossTouching_;
   std::vector<double> cgDirection_, cgPrevious_;  // conjugate gradients only (sized on first use)
+  std::vector<double> chunkMaxima_;  ///< moveAlong's two largest displacements per chunk (CG; sized on first use)
   double growthSinceBuild_ = 0.0;
   double pressureUnit_ = 1.0;
   double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
