@@ -11,7 +11,8 @@
 // over the engine's Verlet list, rebuilt when the two largest displacements since the build plus 2 max dr exceed the
 // skin; rows are in canonical (i, j) order, so the minimised state is bit-identical for every complete broad phase. One
 // FIRE step is one reduction pass (F.v, |v|^2, |F|^2, max |F_i|), one kick-mix-drift pass and the force loop: no
-// allocation.
+// allocation. With threads, the passes share out fixed chunks of 4096 particles and add the chunks' sums in chunk
+// order, so the result is the same bytes for any thread count (as the force loop's).
 //
 // Two-level list (MinimiserSettings::outerSkin, default 5 x skin): FIRE's growing step carries the particles
 // several times further per step than a relax step, so the list is rebuilt often; most rebuilds then cut the
