@@ -9,6 +9,7 @@
 #include <limits>
 #include <utility>
 
+#include "broadphase/parallel.hpp"
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
@@ -37,11 +38,6 @@ struct LargestTwo {
     second = std::max(second, std::min(dsq, first));
     first = std::max(first, dsq);
   }
-  /// The two largest of both (exact: the same values whatever the split).
-  void merge(const LargestTwo& o) {
-    add(o.first);
-    add(o.second);
-  }
   double drift() const { return std::sqrt(first) + std::sqrt(second); }
 };
 
@@ -59,33 +55,38 @@ struct FireSums {
   }
 };
 
-/// FIRE's two passes run over fixed chunks of particles, each chunk's sums kept apart and added in chunk
+/// The minimisers' passes run over fixed chunks of particles, each chunk's sums kept apart and added in chunk
 /// order afterwards: the result is the same for any thread count (the threads only share out the chunks).
 constexpr Index kFireChunk = 4096;
 
 Index fireChunks(Index n) { return (n + kFireChunk - 1) / kFireChunk; }
 
-#if POLYDEM_WITH_OPENMP
-/// Out of line, as in dem_simulation.cpp: the OpenMP region takes the address of its copy of `body`,
-/// which would otherwise make the serial loop reload the captured values after each store.
+/// The threaded path out of line, as in dem_simulation.cpp: the OpenMP region takes the address of its copy
+/// of `body`, which would otherwise make the serial loop reload the captured values after each store.
 template <class Body>
-[[gnu::noinline]] void forChunksThreaded(Index chunks, int threads, Body body) {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-  for (Index c = 0; c < chunks; ++c) body(c);
+[[gnu::noinline]] void forChunksThreaded(Index n, int threads, Body body) {
+  broadphase::parallel::forEachTask(threads, static_cast<std::size_t>(fireChunks(n)), [&](std::size_t k) {
+    const auto c = static_cast<Index>(k);
+    body(c, c * kFireChunk, std::min(n, (c + 1) * kFireChunk));
+  });
 }
-#endif
 
-/// body(c) for every chunk c, on `threads` OpenMP threads when > 1.
+/// body(c, begin, end) for every chunk c = [begin, end) of [0, n), on `threads` threads when > 1.
 template <class Body>
-void forChunks(Index n, [[maybe_unused]] int threads, Body body) {
-  const Index chunks = fireChunks(n);
-#if POLYDEM_WITH_OPENMP
-  if (threads > 1 && chunks > 1) {
-    forChunksThreaded(chunks, threads, body);
+void forChunks(Index n, int threads, Body body) {
+  if (broadphase::parallel::usable(threads) > 1 && n > kFireChunk) {
+    forChunksThreaded(n, threads, body);
     return;
   }
-#endif
-  for (Index c = 0; c < chunks; ++c) body(c);
+  for (Index c = 0; c * kFireChunk < n; ++c) body(c, c * kFireChunk, std::min(n, (c + 1) * kFireChunk));
+}
+
+/// The two largest squared displacements of all chunks, from each chunk's two (`maxima`: 2 per chunk);
+/// exact, so the same values whatever the split.
+double driftOfChunks(const std::vector<double>& maxima) {
+  LargestTwo largest;
+  for (const double m : maxima) largest.add(m);
+  return largest.drift();
 }
 
 /// The sums of particles [begin, end): even and odd ones into separate sums added at the end (two add
@@ -194,6 +195,7 @@ FireMinimiser::FireMinimiser(ParticleStore particles, const Box& box, const Mini
 
   const Index n = particles_.count();
   if (n == 0) throw ConfigError("no particles to minimise");
+  chunkMaxima_.assign(2 * static_cast<std::size_t>(fireChunks(n)), 0.0);  // n does not change
   Eigen::Matrix3Xd& x = particles_.position();
   double radiusSum = 0.0;
   for (Index i = 0; i < n; ++i) {
@@ -252,11 +254,9 @@ void FireMinimiser::moveAlong(const double* d, double a) {
   double* x = particles_.position().data();
   const double* ref = verlet_.reference().data();
   const Index n = particles_.count();
-  chunkMaxima_.resize(2 * static_cast<std::size_t>(fireChunks(n)));  // sized once: n does not change
   double* maxima = chunkMaxima_.data();
-  forChunks(n, settings_.threads, [=](Index c) {
+  forChunks(n, settings_.threads, [=](Index c, Index begin, Index end) {
     LargestTwo largest;
-    const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
     for (Index i = begin; i < end; ++i) {
       double dsq = 0.0;
       for (int k = 0; k < 3; ++k) {
@@ -270,9 +270,7 @@ void FireMinimiser::moveAlong(const double* d, double a) {
     maxima[2 * c] = largest.first;
     maxima[2 * c + 1] = largest.second;
   });
-  LargestTwo largest;
-  for (std::size_t k = 0; k < chunkMaxima_.size(); ++k) largest.add(maxima[k]);
-  pairDrift_ = largest.drift();
+  pairDrift_ = driftOfChunks(chunkMaxima_);
   if (listStale()) rebuild();
   computeForces();
 }
@@ -621,8 +619,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     // F.d (0), max |d_i|^2 (1), max |F_i|^2 (2) for the direction as it is; with `beta` >= 0 first
     // d = M^-1 F + beta d (the previous M^-1 F being the current one here).
     auto direct = [&](double beta, bool update) {
-      forChunks(n, threads, [=](Index c) {
-        const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
+      forChunks(n, threads, [=](Index c, Index begin, Index end) {
         double g = 0.0, dmax = 0.0, fmax = 0.0;
         for (Index i = begin; i < end; ++i) {
           const double* fi = f + 3 * i;
@@ -638,8 +635,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       });
     };
     auto alongDirection = [&] {
-      forChunks(n, threads, [=](Index c) {
-        const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
+      forChunks(n, threads, [=](Index c, Index begin, Index end) {
         double g = 0.0;
         for (Index k = 3 * begin; k < 3 * end; ++k) g += f[k] * d[k];
         part[c][0] = g;
@@ -648,8 +644,7 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     };
     // M^-1 F into `previous`: F.M^-1 F (0) and F.(M^-1 F - previous) (1).
     auto precondition = [&] {
-      forChunks(n, threads, [=](Index c) {
-        const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
+      forChunks(n, threads, [=](Index c, Index begin, Index end) {
         double sNew = 0.0, change = 0.0;
         for (Index i = begin; i < end; ++i) {
           for (int k = 0; k < 3; ++k) {
@@ -717,14 +712,10 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
 
   // FIRE's passes by chunks (forChunks): per-chunk sums and displacement maxima, combined in chunk order.
   std::vector<FireSums> sumsOfChunk(static_cast<std::size_t>(chunks));  // once per call, not per step
-  std::vector<LargestTwo> largestOfChunk(static_cast<std::size_t>(chunks));
   FireSums* chunkSums = sumsOfChunk.data();
-  LargestTwo* chunkLargest = largestOfChunk.data();
+  double* maxima = chunkMaxima_.data();
   for (std::int64_t it = 0;; ++it) {
-    forChunks(n, threads, [=](Index c) {
-      const Index begin = c * kFireChunk;
-      chunkSums[c] = reduceForFire(begin, std::min(n, begin + kFireChunk), f, v, im);
-    });
+    forChunks(n, threads, [=](Index c, Index begin, Index end) { chunkSums[c] = reduceForFire(begin, end, f, v, im); });
     FireSums sums;
     for (Index c = 0; c < chunks; ++c) sums.add(chunkSums[c]);
     auto [power, vv, ff, fvm, ffm, fmaxSq] = sums;
@@ -772,9 +763,8 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
     const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
     const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
     const double* ref = verlet_.reference().data();
-    forChunks(n, threads, [=](Index c) {
+    forChunks(n, threads, [=](Index c, Index begin, Index end) {
       LargestTwo largest;  // squared displacements since the build
-      const Index begin = c * kFireChunk, end = std::min(n, begin + kFireChunk);
       for (Index i = begin; i < end; ++i) {
         // Registers first, stores last: the arrays may alias as far as the compiler knows (see halfKick).
         const double h = dt * im[i];
@@ -797,11 +787,10 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
         }
         largest.add(dsq);
       }
-      chunkLargest[c] = largest;
+      maxima[2 * c] = largest.first;
+      maxima[2 * c + 1] = largest.second;
     });
-    LargestTwo largest;
-    for (Index c = 0; c < chunks; ++c) largest.merge(chunkLargest[c]);
-    pairDrift_ = largest.drift();
+    pairDrift_ = driftOfChunks(chunkMaxima_);
     if (listStale()) rebuild();
     computeForces();
   }

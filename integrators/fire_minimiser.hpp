@@ -222,7 +222,7 @@ class FireMinimiser {
   std::vector<double> crossScratch_;
   std::vector<std::uint8_t> crossTouching_;
   std::vector<double> cgDirection_, cgPrevious_;  // conjugate gradients only (sized on first use)
-  std::vector<double> chunkMaxima_;  ///< moveAlong's two largest displacements per chunk (CG; sized on first use)
+  std::vector<double> chunkMaxima_;  ///< the two largest displacements per chunk of the passes (2 per chunk)
   double growthSinceBuild_ = 0.0;
   double pressureUnit_ = 1.0;
   double hertzReferenceOverlap_ = 1e-4;  ///< relative overlap at which Hertz stiffness sets the masses
