@@ -282,14 +282,14 @@ void FireMinimiser::computeForces() {
   forceSeconds_ += seconds(t0, Clock::now());
 }
 
-double FireMinimiser::pairStiffness(double ri, double rj) const {
-  const double reff = ri * rj / (ri + rj);
+FireMinimiser::StiffnessRule FireMinimiser::stiffnessRule() const {
   const contact::ContactParameters& p = model_.parameters();
   if (p.normal == contact::NormalModel::Hertz) {
     // dF/d(delta) = 3/2 K sqrt(R_eff delta) at delta = reference x R_eff.
-    return 1.5 * p.stiffness * reff * std::sqrt(hertzReferenceOverlap_);
+    return {1.5 * p.stiffness, std::sqrt(hertzReferenceOverlap_), true};
   }
-  return contact::LinearNormal::pairStiffness(model_.linearParams(), reff);
+  const contact::LinearNormal::Params linear = model_.linearParams();
+  return {linear.stiffness, 1.0, linear.radiusScaled};
 }
 
 void FireMinimiser::updateMasses() {
@@ -298,19 +298,14 @@ void FireMinimiser::updateMasses() {
   const Eigen::VectorXd& r = particles_.radius();
   const Index n = particles_.count();
   const contact::ContactList& list = verlet_.list();
-  for (Index i = 0; i < n; ++i) im[i] = pairStiffness(r[i], r[i]);
-  // The candidates' sum once per list rebuild (every ~20 FIRE steps): pairStiffness() written out for the
-  // linear law so the loop inlines it (a call per candidate was 1% of a FIRE run), the same expression.
-  const contact::ContactParameters& p = model_.parameters();
-  const contact::LinearNormal::Params linear = model_.linearParams();
-  const bool linearByRadius = p.normal != contact::NormalModel::Hertz && linear.radiusScaled;
+  const StiffnessRule stiffness = stiffnessRule();
+  for (Index i = 0; i < n; ++i) im[i] = stiffness(r[i], r[i]);
   for (Index i = 0; i < n; ++i) {
     const double ri = r[i];
     double mi = im[i];  // j != i: the stores to im[j] leave it alone
     for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
       const Index j = list.neighbour[c];
-      const double rj = r[j];
-      const double k = linearByRadius ? linear.stiffness * (ri * rj / (ri + rj)) : pairStiffness(ri, rj);
+      const double k = stiffness(ri, r[j]);
       mi += k;
       im[j] += k;
     }
@@ -318,7 +313,7 @@ void FireMinimiser::updateMasses() {
   }
   for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
     const Index i = list.wallParticle[c];
-    im[i] += 2.0 * pairStiffness(r[i], r[i]);  // R_eff = r_i against a wall
+    im[i] += 2.0 * stiffness(r[i], r[i]);  // R_eff = r_i against a wall
   }
   for (Index i = 0; i < n; ++i) im[i] = 1.0 / im[i];
 }

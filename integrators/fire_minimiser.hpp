@@ -209,8 +209,15 @@ class FireMinimiser {
   /// x += a d, then the list check and the forces (a conjugate-gradient move).
   void moveAlong(const double* d, double a);
   void updateMasses();
-  /// Stiffness scale of pair (i, j) at the reference overlap (N/m).
-  double pairStiffness(double ri, double rj) const;
+  /// Stiffness of pair (i, j) at the reference overlap (N/m) for the masses: (factor R_eff) scale for the
+  /// radius-scaled linear law (scale 1) and Hertz (scale sqrt of the reference overlap), factor for the
+  /// constant linear law. A value built once per mass update, so the loop over the candidates inlines it.
+  struct StiffnessRule {
+    double factor, scale;
+    bool byRadius;
+    double operator()(double ri, double rj) const { return byRadius ? factor * (ri * rj / (ri + rj)) * scale : factor; }
+  };
+  StiffnessRule stiffnessRule() const;
 
   ParticleStore particles_;
   Box box_;
