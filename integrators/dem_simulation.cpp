@@ -472,11 +472,6 @@ void DemSimulation::wrapPositions() {
   }
 }
 
-namespace {
-
-/// Coarse Morton cell of centre x (wrapped like wrapPositions() on periodic axes) with `bits` bits per
-/// axis: the leading bits of the key integrators::mortonOrder() sorts by, so a sorted store has every
-/// particle inside its cell's slot range.
 std::uint64_t coarseCell(const double* x, const Box& box, int bits) {
   double w[3];
   for (int k = 0; k < 3; ++k) {
@@ -489,6 +484,14 @@ std::uint64_t coarseCell(const double* x, const Box& box, int bits) {
   }
   return mortonKey(w, box, 10) >> (3 * (10 - bits));
 }
+
+int orderDecayBits(Index count, Index cellParticles) {
+  int bits = 0;
+  while (bits < 10 && std::ldexp(static_cast<double>(cellParticles), 3 * (bits + 1)) <= count) ++bits;
+  return bits;
+}
+
+namespace {
 
 /// a[k] = a[order[k]] for every particle, `width` values per particle, in the array's own memory.
 template <class T>
@@ -505,8 +508,7 @@ void permuteInPlace(T* a, int width, std::span<const Index> order, std::vector<T
 
 double DemSimulation::orderDecay() const {
   const Index n = particles_.count();
-  int bits = 0;
-  while (bits < 10 && std::ldexp(static_cast<double>(settings_.resort.cellParticles), 3 * (bits + 1)) <= n) ++bits;
+  const int bits = orderDecayBits(n, settings_.resort.cellParticles);
   if (bits == 0) return 0.0;
   const std::size_t cells = std::size_t{1} << (3 * bits);
   decayCells_.assign(cells + 1, 0);

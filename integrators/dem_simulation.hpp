@@ -283,4 +283,13 @@ class DemSimulation {
 /// Morton (Z-order) permutation of the centres on a 1024^3 grid over the box: order[k] = old slot.
 std::vector<Index> mortonOrder(const Eigen::Matrix3Xd& centres, const Box& box);
 
+/// The measure of DemSettings::resort in parts, so that a distributed run (parallel::DistributedDem) decides a
+/// re-sort at the same steps as the serial one: DemSimulation::orderDecay() counts the particles whose slot lies
+/// outside the slot range of their coarse cell, the cells having orderDecayBits() bits per axis (0: too few
+/// particles, never re-sorted) and coarseCell() the cell of a centre (wrapped like the rebuild wraps it on
+/// periodic axes): the leading bits of the key mortonOrder() sorts by, so a sorted store has every particle
+/// inside its cell's range.
+int orderDecayBits(Index count, Index cellParticles);
+std::uint64_t coarseCell(const double* x, const Box& box, int bits);
+
 }  // namespace polydem::integrators

@@ -172,6 +172,7 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
   size_ = parallel::size();
   const Index n = static_cast<Index>(g.radius.size());
   if (n == 0) throw ConfigError("no particles to simulate");
+  total_ = n;
   if (g.position.cols() != n || g.referencePosition.cols() != n || g.referenceRadius.size() != n ||
       g.id.size() != static_cast<std::size_t>(n)) {
     throw InputError("DistributedDem: inconsistent state sizes");
@@ -662,9 +663,9 @@ void DistributedDem::exchangeGhosts() {
   }
 }
 
-void DistributedDem::rebuild() {
-  // 1. Wrap periodic coordinates exactly as DemSimulation::rebuild() does; a non-finite coordinate or one
-  //    outside a walled box is a fault, reported by the serial check of the gathered state.
+void DistributedDem::wrapOwned() {
+  // Periodic coordinates wrapped exactly as DemSimulation::wrapPositions() does; a non-finite coordinate or one
+  // outside a walled box is a fault, reported by the serial check of the gathered state.
   int fault = 0;
   for (const Index i : ownedSlots_) {
     for (int k = 0; k < 3; ++k) {
@@ -693,6 +694,76 @@ void DistributedDem::rebuild() {
                     "(found at a neighbour-list rebuild)",
                     step_, box_.describe()));
   }
+}
+
+double DistributedDem::orderDecay() {
+  // DemSimulation::orderDecay() on the global slot order (= the keys): the cells' particle counts summed over
+  // the ranks give every cell's slot range, then each rank counts its misplaced owned particles. Integer sums:
+  // the same count, so the same decision, as the serial run.
+  const Index n = static_cast<Index>(total_);
+  const int bits = integrators::orderDecayBits(n, settings_.resort.cellParticles);
+  if (bits == 0) return 0.0;
+  const std::size_t cells = std::size_t{1} << (3 * bits);
+  std::vector<std::int64_t> start(cells + 1, 0);
+  for (const Index i : ownedSlots_) ++start[integrators::coarseCell(&x_(0, i), box_, bits) + 1];
+  CommTimer timer(stats_.commSeconds);
+  mpiCheck(
+      MPI_Allreduce(MPI_IN_PLACE, start.data() + 1, toInt(cells, "coarse cells"), MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD),
+      "MPI_Allreduce");
+  for (std::size_t c = 0; c < cells; ++c) start[c + 1] += start[c];
+  std::int64_t misplaced = 0;
+  for (const Index i : ownedSlots_) {
+    const std::uint64_t c = integrators::coarseCell(&x_(0, i), box_, bits);
+    const std::int64_t key = key_[static_cast<std::size_t>(i)];
+    misplaced += (key < start[c] || key >= start[c + 1]) ? 1 : 0;
+  }
+  mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &misplaced, 1, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD), "MPI_Allreduce");
+  return static_cast<double>(misplaced) / static_cast<double>(n);
+}
+
+void DistributedDem::resort() {
+  // DemSimulation::resortParticles(): wrap, the Morton order of all centres (integrators::mortonOrder on the
+  // global centres in key order, gathered on every rank: the serial function gives the serial order), new keys
+  // = new serial slots, then a build, whose migration puts every rank's particles in the new key order.
+  wrapOwned();
+  const auto N = static_cast<std::size_t>(total_);
+  std::vector<double> mine;
+  mine.reserve(4 * ownedSlots_.size());
+  for (const Index i : ownedSlots_) {
+    mine.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
+    for (int k = 0; k < 3; ++k) mine.push_back(x_(k, i));
+  }
+  std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(static_cast<std::size_t>(size_) + 1, 0);
+  std::vector<double> all(4 * N);
+  {
+    CommTimer timer(stats_.commSeconds);
+    int count = toInt(mine.size(), "re-sort centres");
+    mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+    for (std::size_t q = 0; q < counts.size(); ++q) offsets[q + 1] = offsets[q] + counts[q];
+    if (static_cast<std::size_t>(offsets.back()) != all.size()) {
+      throw std::logic_error("DistributedDem::resort: owned particles do not add up to the system");
+    }
+    mpiCheck(MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE,
+                            MPI_COMM_WORLD),
+             "MPI_Allgatherv");
+  }
+  Eigen::Matrix3Xd centres(3, static_cast<Index>(N));
+  for (std::size_t o = 0; o < N; ++o) {
+    const auto key = static_cast<Index>(all[4 * o]);
+    for (int k = 0; k < 3; ++k) centres(k, key) = all[4 * o + 1 + static_cast<std::size_t>(k)];
+  }
+  const std::vector<Index> order = integrators::mortonOrder(centres, box_);
+  std::vector<Index> newKey(N);
+  for (std::size_t k = 0; k < N; ++k) newKey[static_cast<std::size_t>(order[k])] = static_cast<Index>(k);
+  for (const Index i : ownedSlots_)
+    key_[static_cast<std::size_t>(i)] = newKey[static_cast<std::size_t>(key_[static_cast<std::size_t>(i)])];
+  ++resorts_;
+  rebuild();
+}
+
+void DistributedDem::rebuild() {
+  // 1. Wrap (DemSimulation::rebuild() wraps first too).
+  wrapOwned();
 
   rebalance();
 
@@ -957,7 +1028,12 @@ std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
       mpiCheck(MPI_Allreduce(MPI_IN_PLACE, reduced, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
     }
     if (reduced[1] > 0.0) interrupted_ = true;
-    if (reduced[0] > limit * limit) {
+    // As DemSimulation::advance: a re-sort at fixed steps when the order has decayed, else the rebuild rule.
+    const integrators::ResortRule& rule = settings_.resort;
+    if (settings_.spatialSort && rule.interval > 0 && (step_ + 1) % rule.interval == 0 &&
+        orderDecay() > rule.threshold) {
+      resort();
+    } else if (reduced[0] > limit * limit) {
       rebuild();
     } else {
       exchangeGhosts();
@@ -1181,6 +1257,7 @@ ParallelStats DistributedDem::stats() {
   ParallelStats out;
   out.decomposition = grid_.describe();
   out.rebalances = rebalances_;
+  out.resorts = resorts_;
   constexpr int kFields = 9;
   const double mine[kFields] = {stats_.owned,      stats_.ghosts, stats_.pairs,        stats_.ghostBytesPerStep,
                                 stats_.migrated,   stats_.cost,   stats_.coarseGhosts, stats_.commSeconds,

@@ -24,7 +24,10 @@
 // nowhere near it; (1) alone would copy a shell of the largest radius's thickness around every region. At each
 // neighbour-list build (the same steps as the serial run: max displacement > skin/2) particles are wrapped, migrate to
 // the rank whose brick holds them, carrying velocity, rotation and the contact springs of their pairs and walls, and
-// ghosts are chosen again.
+// ghosts are chosen again. The serial run's re-sorts (DemSettings::resort: at fixed steps, when the storage order
+// has decayed) change the slots, so the keys: the decay is measured on the global key order (integer sums over
+// the ranks) at the same steps, and a re-sort gives every particle its new serial slot as key, from the serial
+// Morton order of all centres, before a build.
 //
 // The start and every output go through the serial state (integrators::DemState in slot order): every rank
 // constructs from the same global state (so a serial checkpoint resumes on any rank count), and gather()
@@ -71,6 +74,7 @@ struct RankStats {
 struct ParallelStats {
   std::string decomposition;    ///< Decomposition::describe()
   std::int64_t rebalances = 0;  ///< bisections recomputed at builds
+  std::int64_t resorts = 0;     ///< re-sorts by DemSettings::resort (as the serial run's) in this object's life
   std::vector<RankStats> ranks;
 };
 
@@ -115,7 +119,14 @@ class DistributedDem {
   double openingPass();
   void closingKick();
   void exchangeGhosts();
+  /// Collective: wrap the owned centres on periodic axes; a fault (non-finite, outside a walled box) is thrown
+  /// on every rank.
+  void wrapOwned();
   void rebuild();
+  /// Collective: DemSimulation::orderDecay() of the global slot order.
+  double orderDecay();
+  /// Collective: DemSimulation::resortParticles(): new keys in the Morton order of all centres, then a build.
+  void resort();
   /// Collective: every rank's cost; a bisection is recomputed when it is out of balance (before the migration).
   void rebalance();
   void computeForces();
@@ -142,6 +153,8 @@ class DistributedDem {
   Decomposition grid_;
   double rebalanceThreshold_ = 0.1;
   std::int64_t rebalances_ = 0;
+  std::int64_t resorts_ = 0;
+  std::int64_t total_ = 0;    ///< particles in the system (all ranks)
   std::vector<double> rmax_;  ///< largest owned radius per rank (-1: owns nothing)
   std::vector<std::vector<std::pair<std::int32_t, double>>> reach_;  ///< per rank: (cell, R) by cell
 

@@ -100,6 +100,8 @@ class StepDriver {
   virtual void sync(integrators::DemSimulation& sim) = 0;
   /// The loop is over: the other ranks return from serve().
   virtual void finish() = 0;
+  /// Re-sorts of the storage order (DemSettings::resort) during the distributed loop; after finish().
+  virtual std::int64_t resorts() const = 0;
   /// Lines after the start lines and after the closing report (rank 0).
   virtual void printStart() const = 0;
   virtual void printReport() const = 0;
@@ -173,6 +175,7 @@ struct LoopTiming {
   std::int64_t stepsRun = 0;
   std::int64_t totalSteps = 0;
   bool interrupted = false;
+  std::int64_t resorts = 0;  ///< re-sorts of the storage order (DemSettings::resort) during the loop
 };
 /// The closing "--- relax report ---".
 void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,

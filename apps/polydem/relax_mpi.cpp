@@ -69,6 +69,8 @@ class MpiDriver final : public StepDriver {
     end_ = dem_.stats();
   }
 
+  std::int64_t resorts() const override { return end_.resorts; }
+
   void printStart() const override {
     fmt::print("parallel: {} MPI ranks, {}; {}\n", parallel::size(), start_.decomposition, ghostsText(start_));
   }

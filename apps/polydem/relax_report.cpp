@@ -89,8 +89,9 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
       "integration {:.4f}, checks {:.4f}\n",
       loopSeconds * perParticleStep, loopSeconds, t.broadPhase * perParticleStep, t.force * perParticleStep,
       t.integration * perParticleStep, t.check * perParticleStep);
-  fmt::print("neighbour list        {} rebuilds, {} candidate pairs ({:.2f} per particle)\n", sim.rebuilds(),
-             sim.neighbours().list().pairCount(), static_cast<double>(sim.neighbours().list().pairCount()) / n);
+  fmt::print("neighbour list        {} rebuilds, {} re-sorts, {} candidate pairs ({:.2f} per particle)\n",
+             sim.rebuilds(), timing.resorts, sim.neighbours().list().pairCount(),
+             static_cast<double>(sim.neighbours().list().pairCount()) / n);
   const std::optional<std::size_t> hugeBytes = residentHugePageBytes();
   fmt::print("memory                {:.1f} MiB held by the run ({:.0f} bytes/particle), peak RSS {:.1f} MiB{}\n",
              static_cast<double>(sim.memoryBytes()) / (1024.0 * 1024.0), static_cast<double>(sim.memoryBytes()) / n,
@@ -129,6 +130,7 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
   sum.put("report.time.integration_seconds", t.integration);
   sum.put("report.time.check_seconds", t.check);
   sum.put("report.neighbours.rebuilds", static_cast<std::int64_t>(sim.rebuilds()));
+  sum.put("report.neighbours.resorts", timing.resorts);
   sum.put("report.neighbours.candidate_pairs", static_cast<std::int64_t>(sim.neighbours().list().pairCount()));
   sum.put("report.memory.bytes_held", static_cast<std::int64_t>(sim.memoryBytes()));
   sum.put("report.memory.peak_rss_mib", peakMemoryMiB());

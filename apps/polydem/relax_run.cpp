@@ -551,8 +551,10 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
     if (series.enabled()) series.write(sim);
     if (out.snapshots()) out.writeSnapshot(sim);
   }
-  const LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet, driver);
+  const std::int64_t resortsBefore = sim.resorts();
+  LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet, driver);
   if (driver) driver->finish();
+  timing.resorts = driver ? driver->resorts() : sim.resorts() - resortsBefore;
   series.flush();
   // The checks run once at the end whatever run.check_interval says (0 included): no state is written
   // as a result without having passed them.

@@ -56,6 +56,30 @@ progress_interval = 0.0
 timeseries_interval = 100
 ")
 
+# A dilute gas whose storage order decays: the serial run re-sorts (DemSettings::resort, measured every 500
+# steps) between steps 3500 and 5000, which renumbers the slots the ranks key their particles by.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_gas.toml "# expects re-sorts (tests/mpi/mpi_compare.sh)
+[particles]
+count = 2100
+distribution = \"uniform-radius\"
+rmin = 1e-3
+omega = 2.0
+packing_fraction = 0.05
+density = 2500.0
+seed = 3
+[contact]
+stiffness = 1e4
+restitution = 0.95
+[velocities]
+overlap = 0.08
+[run]
+steps = 6000
+check_interval = 1000
+progress_interval = 0.0
+[output]
+timeseries_interval = 500
+")
+
 # Hertz with Hertz-Mindlin friction, viscous damping, half-step dashpot velocity, walls across gravity.
 string(REPLACE "stiffness = 1e4" "law = \"hertz\"\nstiffness = 1e8\ntangential = \"hertz-mindlin\"\npoisson_ratio = 0.3"
                _polydem_mpi_hertz "${_polydem_mpi_walls}")
@@ -66,8 +90,8 @@ file(WRITE ${POLYDEM_MPI_WORK}/mpi_hertz.toml "${_polydem_mpi_hertz}")
 set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
 # On 2 busy cores a run of 2-4 ranks takes 10-25 s (every wait for a message gives the core away): one rank
 # count per scene runs in the checked passes, the others are labelled slow too.
-set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3)
-foreach(scene walls periodic friction hertz)
+set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3 mpi_gas_np2)
+foreach(scene walls periodic friction hertz gas)
   add_test(NAME mpi_${scene}_serial
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                    ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial -q)

@@ -36,6 +36,14 @@ if [ "$np" -gt 1 ]; then
   moved=$(sed -n 's/^migrations *\([0-9]*\) particles.*/\1/p' run.log)
   [ -n "$moved" ] && [ "$moved" -gt 0 ] || fail "no particle migrated between ranks (the scene does not test migration)"
 fi
+# The re-sorts of the storage order (they renumber the slots the ranks key their particles by): as many as
+# the serial run's, and some where the scene says it expects them.
+resorts() { sed -n 's/^neighbour list .* \([0-9][0-9]*\) re-sorts.*/\1/p' "$1"; }
+want=$(resorts "$ref/run.log"); got=$(resorts run.log)
+[ -n "$want" ] && [ "$want" = "$got" ] || fail "re-sorts: $got, the serial run's: $want"
+if grep -q "^# expects re-sorts" scene.toml; then
+  [ "$want" -gt 0 ] || fail "the serial run did not re-sort (the scene does not test re-sorting)"
+fi
 files=(final.txt series.csv)
 for f in "$ref"/snap_*.txt; do files+=("$(basename "$f")"); done
 [ "${#files[@]}" -gt 3 ] || fail "the reference wrote no snapshots"
