@@ -677,8 +677,10 @@ void DemSimulation::growRadii(double factor) {
   initialEnergy_ = energies().total();
 }
 
-double DemSimulation::packingFraction() const {
-  return 4.0 / 3.0 * kPi * particles_.radius().array().cube().sum() / box_.volume();
+double DemSimulation::packingFraction() const { return packingFraction(particles_.radius(), box_); }
+
+double DemSimulation::packingFraction(const Eigen::VectorXd& radius, const Box& box) {
+  return 4.0 / 3.0 * kPi * radius.array().cube().sum() / box.volume();
 }
 
 contact::ContactStats DemSimulation::contactStats() const { return contact::measureContacts(model_, context()); }

@@ -178,6 +178,8 @@ class DemSimulation {
   void growRadii(double factor);
   /// Total sphere volume / box volume.
   double packingFraction() const;
+  /// The same expression for given radii (a copy of the particles' radii gives the same bytes).
+  static double packingFraction(const Eigen::VectorXd& radius, const Box& box);
 
   std::int64_t step() const { return step_; }
   /// Simulated time (s): the time origin (0, or the start file's time) plus step x dt.

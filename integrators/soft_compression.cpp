@@ -66,36 +66,67 @@ SoftCompression::SoftCompression(const DemState& state, DemSettings settings, co
       progress_(progress),
       sim_(DemSimulation::restore(state, compressionSettings(settings, progress.viscousDamping))) {}
 
+double SoftCompression::packingFraction() const {
+  return engine_ && radii_.size() > 0 ? DemSimulation::packingFraction(radii_, sim_.box()) : sim_.packingFraction();
+}
+
+double SoftCompression::maxOverlapRatio() const {
+  return engine_ ? engine_->maxOverlapRatio() : sim_.contactStats().maxOverlapRatio;
+}
+
+void SoftCompression::growRadii(double factor) {
+  if (!engine_) {
+    sim_.growRadii(factor);
+    return;
+  }
+  engine_->growRadii(factor);
+  if (radii_.size() == 0) radii_ = sim_.particles().radius();
+  radii_ *= factor;  // DemSimulation::growRadii's expression: the engine's radii, byte for byte
+}
+
+void SoftCompression::sync() {
+  if (!engine_) return;
+  engine_->sync(sim_);
+  radii_.resize(0);  // the simulation holds the grown radii now
+}
+
 bool SoftCompression::advance() {
   using Phase = CompressionProgress::Phase;
   CompressionProgress& p = progress_;
+  auto run = [&](std::int64_t steps) {
+    if (engine_) {
+      engine_->advance(steps);
+    } else {
+      sim_.advance(steps);
+    }
+  };
   if (p.phase == Phase::Growing) {
-    if (sim_.packingFraction() < compression_.targetPacking * (1.0 - 1e-12) && p.steps <= compression_.maxSteps) {
+    if (packingFraction() < compression_.targetPacking * (1.0 - 1e-12) && p.steps <= compression_.maxSteps) {
       // Growth pauses while the overlaps are large (the damping has not caught up): a fixed stiffness gets
       // relatively softer as radii and masses grow, and jammed regions need time to rearrange.
       const double pauseAbove = std::max(5.0 * compression_.relaxedOverlap, 0.05);
-      if (sim_.contactStats().maxOverlapRatio < pauseAbove) {
+      if (maxOverlapRatio() < pauseAbove) {
         const double perChunk =
             1.0 + compression_.growthRate * static_cast<double>(kGrowthChunk) * sim_.dt() / p.contactDuration;
-        const double needed = std::cbrt(compression_.targetPacking / sim_.packingFraction());
-        sim_.growRadii(std::min(perChunk, needed));
+        const double needed = std::cbrt(compression_.targetPacking / packingFraction());
+        growRadii(std::min(perChunk, needed));
       }
-      sim_.advance(kGrowthChunk);
+      run(kGrowthChunk);
       p.steps += kGrowthChunk;
       return true;
     }
     p.growthSteps = p.steps;
     p.phase = Phase::Relaxing;
-    p.overlap = sim_.contactStats().maxOverlapRatio;
-    p.packed = sim_.packingFraction() >= compression_.targetPacking * (1.0 - 1e-12);
+    p.overlap = maxOverlapRatio();
+    p.packed = packingFraction() >= compression_.targetPacking * (1.0 - 1e-12);
   }
   if (p.phase == Phase::Relaxing) {
     // Relax: damped motion until the overlaps are small (or the step budget is spent).
     if (p.packed && p.overlap > compression_.relaxedOverlap && p.steps < compression_.maxSteps) {
-      sim_.advance(kRelaxChunk);
+      run(kRelaxChunk);
       p.steps += kRelaxChunk;
       p.relaxSteps += kRelaxChunk;
-      p.overlap = sim_.contactStats().maxOverlapRatio;
+      p.overlap = maxOverlapRatio();
       return true;
     }
     p.phase = Phase::Done;
@@ -108,8 +139,8 @@ CompressionResult SoftCompression::result() const {
   CompressionResult result;
   result.growthSteps = growing() ? p.steps : p.growthSteps;
   result.relaxSteps = p.relaxSteps;
-  result.packingFraction = sim_.packingFraction();
-  result.maxOverlapRatio = growing() ? sim_.contactStats().maxOverlapRatio : p.overlap;
+  result.packingFraction = packingFraction();
+  result.maxOverlapRatio = growing() ? maxOverlapRatio() : p.overlap;
   result.rebuilds = sim_.rebuilds();
   if (!finished()) {
     result.reachedTarget = false;

@@ -53,6 +53,22 @@ struct CompressionProgress {
   double viscousDamping = 0.0;   ///< gamma = damping / t_c,min, the simulation's viscous_damping
 };
 
+/// Where the steps of a compression run when not in its own DemSimulation: on several MPI ranks
+/// (apps/polydem/relax_mpi.cpp, parallel::DistributedDem), each call collective. The compression then keeps its
+/// simulation for the radii alone (the packing fraction, computed by the serial expression from the same
+/// bytes) until sync() brings it up to the engine's state.
+class CompressionEngine {
+ public:
+  virtual ~CompressionEngine() = default;
+  virtual void advance(std::int64_t steps) = 0;
+  /// DemSimulation::growRadii().
+  virtual void growRadii(double factor) = 0;
+  /// DemSimulation::contactStats().maxOverlapRatio.
+  virtual double maxOverlapRatio() = 0;
+  /// `sim` := the engine's state.
+  virtual void sync(DemSimulation& sim) = 0;
+};
+
 /// A soft compression advanced chunk by chunk (20 growth steps, or 100 relaxation steps), so that the
 /// caller can poll interrupts and save checkpoints between chunks. A compression restored from
 /// state() and progress() continues bit-identically.
@@ -66,8 +82,18 @@ class SoftCompression {
   SoftCompression(const DemState& state, DemSettings settings, const CompressionSettings& compression,
                   const CompressionProgress& progress);
 
+  /// Run the steps on `engine` from now on (null: in simulation()); the engine starts from simulation()'s state.
+  /// simulation() and particles() are then stale until sync().
+  void runOn(CompressionEngine* engine) { engine_ = engine; }
+  /// simulation() := the engine's state (nothing without an engine).
+  void sync();
+
   /// Run one chunk. Returns false (doing nothing) once the compression has ended.
   bool advance();
+  /// The packing fraction and the largest overlap / smaller radius of the current state (with an engine:
+  /// the packing fraction from the radii kept in step, the overlap a collective call).
+  double packingFraction() const;
+  double maxOverlapRatio() const;
   bool finished() const { return progress_.phase == CompressionProgress::Phase::Done; }
   bool growing() const { return progress_.phase == CompressionProgress::Phase::Growing; }
   const DemSimulation& simulation() const { return sim_; }
@@ -79,10 +105,13 @@ class SoftCompression {
 
  private:
   DemSettings compressionSettings(DemSettings settings, double viscousDamping) const;
+  void growRadii(double factor);
 
   CompressionSettings compression_;
   CompressionProgress progress_;
   DemSimulation sim_;
+  CompressionEngine* engine_ = nullptr;
+  Eigen::VectorXd radii_;  ///< with an engine: the radii, grown as the engine grows them (sized on first growth)
 };
 
 /// Compress `particles` in `box` (velocities are zeroed first) with the contact law and broad phase of

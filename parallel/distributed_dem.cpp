@@ -142,7 +142,7 @@ namespace {
 constexpr int kX = 2, kV = 5, kVp = 8, kW = 11, kWp = 14;
 }
 
-int DistributedDem::recordWidth() const { return rotation_ ? 20 : 13; }
+int DistributedDem::recordWidth() const { return (rotation_ ? 20 : 13) + (carryForces_ ? (rotation_ ? 6 : 3) : 0); }
 
 void DistributedDem::packRecord(Index i, std::vector<double>& out) const {
   out.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
@@ -157,6 +157,12 @@ void DistributedDem::packRecord(Index i, std::vector<double>& out) const {
   out.push_back(r_[i]);
   out.push_back(invm_[i]);
   if (rotation_) out.push_back(invI_[i]);
+  if (carryForces_) {
+    for (int k = 0; k < 3; ++k) out.push_back(f_(k, i));
+    if (rotation_) {
+      for (int k = 0; k < 3; ++k) out.push_back(tq_(k, i));
+    }
+  }
 }
 
 // ---- construction ---------------------------------------------------------------------------------------
@@ -173,6 +179,7 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
   const Index n = static_cast<Index>(g.radius.size());
   if (n == 0) throw ConfigError("no particles to simulate");
   total_ = n;
+  rmaxGlobal_ = g.radius.maxCoeff();
   if (g.position.cols() != n || g.referencePosition.cols() != n || g.referenceRadius.size() != n ||
       g.id.size() != static_cast<std::size_t>(n)) {
     throw InputError("DistributedDem: inconsistent state sizes");
@@ -608,7 +615,7 @@ void DistributedDem::closingKick() {
 
 void DistributedDem::exchangeGhosts() {
   // What the kernel reads of a ghost and what changes every step: x, v(t + dt/2), the predicted v and the
-  // same for rotation. Radii and masses change only at builds (no radius growth in a parallel run).
+  // same for rotation. Radii and masses change only by growRadii(), which every rank applies to its ghosts too.
   auto pack = [&](Index i, double* out) {
     int o = 0;
     for (int k = 0; k < 3; ++k) out[o++] = x_(k, i);
@@ -761,9 +768,40 @@ void DistributedDem::resort() {
   rebuild();
 }
 
+Eigen::VectorXd DistributedDem::globalRadii() {
+  std::vector<double> mine;
+  mine.reserve(2 * ownedSlots_.size());
+  for (const Index i : ownedSlots_) {
+    mine.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
+    mine.push_back(r_[i]);
+  }
+  std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(static_cast<std::size_t>(size_) + 1, 0);
+  std::vector<double> all(2 * static_cast<std::size_t>(total_));
+  CommTimer timer(stats_.commSeconds);
+  const int count = toInt(mine.size(), "radii");
+  mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
+  for (std::size_t q = 0; q < counts.size(); ++q) offsets[q + 1] = offsets[q] + counts[q];
+  if (static_cast<std::size_t>(offsets.back()) != all.size()) {
+    throw std::logic_error("DistributedDem::globalRadii: owned particles do not add up to the system");
+  }
+  mpiCheck(MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE,
+                          MPI_COMM_WORLD),
+           "MPI_Allgatherv");
+  Eigen::VectorXd radii(static_cast<Index>(total_));
+  for (std::size_t o = 0; o < static_cast<std::size_t>(total_); ++o)
+    radii[static_cast<Index>(all[2 * o])] = all[2 * o + 1];
+  return radii;
+}
+
 void DistributedDem::rebuild() {
   // 1. Wrap (DemSimulation::rebuild() wraps first too).
   wrapOwned();
+  if (resample_) {
+    auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get());
+    chooser->setSample(std::span<const double>(sampleRadii_.data(), static_cast<std::size_t>(sampleRadii_.size())),
+                       box_, skin_);
+    resample_ = false;
+  }
 
   rebalance();
 
@@ -921,6 +959,13 @@ void DistributedDem::rebuild() {
     }
     r_[k] = rec[rOff];
     invm_[k] = rec[rOff + 1];
+    if (carryForces_) {
+      const int fOff = rOff + (rotation_ ? 3 : 2);
+      for (int c = 0; c < 3; ++c) f_(c, k) = rec[fOff + c];
+      if (rotation_) {
+        for (int c = 0; c < 3; ++c) tq_(c, k) = rec[fOff + 3 + c];
+      }
+    }
   }
   std::size_t ghostBase = owned;
   for (std::size_t q = 0; q < P; ++q) {
@@ -1011,6 +1056,42 @@ contact::ForceContext DistributedDem::context() {
 
 void DistributedDem::computeForces() {
   if (n_ > 0) kernel_.run(model_, context());
+}
+
+void DistributedDem::growRadii(double factor) {
+  // DemSimulation::growRadii() on every local particle (ghosts included: the same multiplication gives the
+  // owner's bytes), with the serial growth bound from the global largest radius (max r_i x factor is the largest
+  // of the products: rounding is monotonic). A build it makes comes between two steps, so the forces of the last
+  // step travel with the migrating particles (the next opening kick uses them).
+  if (!(factor >= 1.0 && std::isfinite(factor))) {
+    throw ConfigError(fmt::format("growRadii: factor must be >= 1, got {}", factor));
+  }
+  const double f3 = factor * factor * factor;
+  auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get());
+  if (chooser && sampleRadii_.size() == 0) sampleRadii_ = globalRadii();  // once: only a compression pays it
+  growth_ += (factor - 1.0) * rmaxGlobal_;
+  rmaxGlobal_ *= factor;
+  r_ *= factor;
+  if (chooser) {
+    // `auto` chose for the system's radii (the constructor): the next build chooses for the grown ones, on every
+    // rank alike (the same radii, box, skin and K).
+    sampleRadii_ *= factor;
+    resample_ = true;
+  }
+  invm_ /= f3;
+  if (rotation_) invI_ /= f3 * factor * factor;
+  if (growth_ > 0.5 * skin_) {
+    carryForces_ = true;
+    rebuild();
+    carryForces_ = false;
+  }
+}
+
+double DistributedDem::maxOverlapRatio() {
+  double local = n_ > 0 ? contact::measureContacts(model_, context()).maxOverlapRatio : 0.0;
+  CommTimer timer(stats_.commSeconds);
+  mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &local, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  return local;
 }
 
 std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {

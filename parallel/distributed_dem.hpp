@@ -90,6 +90,11 @@ class DistributedDem {
   /// Collective: advance `steps` steps. With `stopOnInterrupt`, stops after the step at which some rank saw
   /// polydem::interruptRequested(). Returns the steps done. Throws CollectiveError from the stability check.
   std::int64_t advance(std::int64_t steps, bool stopOnInterrupt);
+  /// Collective: DemSimulation::growRadii() (soft compression): every radius x factor >= 1, masses / factor^3,
+  /// moments of inertia / factor^5, and a build when the growth since the last one exceeds skin / 2.
+  void growRadii(double factor);
+  /// Collective: DemSimulation::contactStats().maxOverlapRatio, the exact maximum over the ranks.
+  double maxOverlapRatio();
   /// Some rank saw an interrupt (collective knowledge: the same on every rank).
   bool interrupted() const { return interrupted_; }
   std::int64_t step() const { return step_; }
@@ -123,6 +128,8 @@ class DistributedDem {
   /// on every rank.
   void wrapOwned();
   void rebuild();
+  /// Collective: every particle's radius, by key, on every rank.
+  Eigen::VectorXd globalRadii();
   /// Collective: DemSimulation::orderDecay() of the global slot order.
   double orderDecay();
   /// Collective: DemSimulation::resortParticles(): new keys in the Morton order of all centres, then a build.
@@ -154,8 +161,12 @@ class DistributedDem {
   double rebalanceThreshold_ = 0.1;
   std::int64_t rebalances_ = 0;
   std::int64_t resorts_ = 0;
-  std::int64_t total_ = 0;    ///< particles in the system (all ranks)
-  std::vector<double> rmax_;  ///< largest owned radius per rank (-1: owns nothing)
+  std::int64_t total_ = 0;       ///< particles in the system (all ranks)
+  double rmaxGlobal_ = 0.0;      ///< the largest radius of the system (growRadii())
+  Eigen::VectorXd sampleRadii_;  ///< `auto` only, from the first growRadii(): every radius of the system, grown
+  bool resample_ = false;        ///< radii grew since `auto` chose: choose again at the next build
+  bool carryForces_ = false;     ///< a build between steps (growRadii()): records carry the forces and torques
+  std::vector<double> rmax_;     ///< largest owned radius per rank (-1: owns nothing)
   std::vector<std::vector<std::pair<std::int32_t, double>>> reach_;  ///< per rank: (cell, R) by cell
 
   // local particles, owned and ghosts, ascending key (= serial slot)

@@ -5,6 +5,7 @@
 #include <mpi.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 
@@ -89,6 +90,23 @@ void broadcast(Command& c) {
   c.op = buffer[0];
   c.value = buffer[1];
 }
+
+namespace {
+
+template <class T>
+void broadcastArray(T* values, std::size_t count, MPI_Datatype type) {
+  // In pieces below INT_MAX elements (MPI counts are int).
+  constexpr std::size_t kPiece = std::size_t{1} << 30;
+  for (std::size_t done = 0; done < count; done += kPiece) {
+    const int n = static_cast<int>(std::min(kPiece, count - done));
+    if (MPI_Bcast(values + done, n, type, 0, MPI_COMM_WORLD) != MPI_SUCCESS) rankFailure("MPI_Bcast failed", 1);
+  }
+}
+
+}  // namespace
+
+void broadcast(double* values, std::size_t count) { broadcastArray(values, count, MPI_DOUBLE); }
+void broadcast(std::int32_t* values, std::size_t count) { broadcastArray(values, count, MPI_INT32_T); }
 
 void exitFollower(int code) {
   if (initialised) MPI_Finalize();

@@ -7,6 +7,7 @@
 //
 // Followers (ranks > 0) serve rank 0's commands during `polydem relax` (apps/polydem/relax_mpi.cpp). If
 // rank 0 fails while they wait, finish() tells them its exit code, so every rank exits with the same code.
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -43,12 +44,15 @@ void requireParallelSupport(const std::string& subcommand);
 
 /// Rank 0's command to its followers (apps/polydem/relax_mpi.cpp).
 struct Command {
-  enum Op : std::int64_t { Advance = 1, Sync = 2, Stop = 3, Fail = 4 };
+  enum Op : std::int64_t { Advance = 1, Sync = 2, Stop = 3, Fail = 4, GrowRadii = 5, MaxOverlap = 6 };
   std::int64_t op = 0;
-  std::int64_t value = 0;  ///< steps (Advance), exit code (Fail)
+  std::int64_t value = 0;  ///< steps (Advance), exit code (Fail), the factor's bits (GrowRadii)
 };
 /// Broadcast `c` from rank 0 (collective).
 void broadcast(Command& c);
+/// Broadcast `count` values from rank 0 (collective).
+void broadcast(double* values, std::size_t count);
+void broadcast(std::int32_t* values, std::size_t count);
 /// A follower told by rank 0 to stop with `code` (rank 0 failed on its own): MPI_Finalize and exit.
 [[noreturn]] void exitFollower(int code);
 /// Followers are waiting for commands (set by rank 0 while it drives a run): finish() then sends Fail.

@@ -36,6 +36,9 @@
 #include "core/interrupt.hpp"
 #include "core/io/checkpoint.hpp"
 #include "polydem/mpi_config.hpp"
+#if POLYDEM_WITH_MPI
+#include "parallel/mpi_session.hpp"
+#endif
 
 namespace polydem::app {
 
@@ -135,6 +138,10 @@ int exitCode(const RunSummary& r) { return static_cast<int>(r.interrupted ? kExi
 /// A soft compression that stopped short of its target: write what there is, marked, and do not run on it.
 int writeShortOfTarget(const RelaxScene& scene, Start& start, RunContext& context,
                        const integrators::SoftCompression& compression, bool quiet) {
+  const int code = static_cast<int>(start.interrupted ? kExitInterrupted : kExitTargetNotReached);
+#if POLYDEM_WITH_MPI
+  if (severalRanks() && !parallel::isRoot()) return code;  // rank 0 writes and reports
+#endif
   fmt::print("TARGET NOT REACHED: {}\n", *start.targetNotReached);
   RelaxScene stop = scene;
   stop.steps = 0;
@@ -147,7 +154,7 @@ int writeShortOfTarget(const RelaxScene& scene, Start& start, RunContext& contex
   }
   runScene(stop, integrators::DemSimulation(std::move(start.particles), start.box, scene.dem), context,
            RunMode{.quiet = quiet, .targetNotReached = start.targetNotReached});
-  return static_cast<int>(start.interrupted ? kExitInterrupted : kExitTargetNotReached);
+  return code;
 }
 
 /// Compute (and write, report) a run from its start: the soft compression if any, the velocities,
@@ -155,7 +162,17 @@ int writeShortOfTarget(const RelaxScene& scene, Start& start, RunContext& contex
 int runFromStart(const RelaxScene& scene, Start start, RunContext& context,
                  std::optional<integrators::SoftCompression> compression, bool quiet,
                  [[maybe_unused]] const std::string& decomposition = "rcb") {
-  if (compression) compressStart(scene, *compression, start, context, quiet, true);
+  if (compression) {
+#if POLYDEM_WITH_MPI
+    if (severalRanks()) {
+      compressOnRanks(scene, *compression, start, context, quiet, decomposition);
+    } else {
+      compressStart(scene, *compression, start, context, quiet, true);
+    }
+#else
+    compressStart(scene, *compression, start, context, quiet, true);
+#endif
+  }
   if (start.targetNotReached) return writeShortOfTarget(scene, start, context, *compression, quiet);
   setVelocities(scene, start);
   const integrators::DemSettings settings = runSettings(scene);
@@ -239,7 +256,7 @@ int run(const RelaxOptions& opt) {
                                   opt.decomposition));
   }
 #if POLYDEM_WITH_MPI
-  if (severalRanks()) requireParallelSupport(loaded.scene, !opt.sweep.empty());
+  if (severalRanks()) requireParallelSupport(!opt.sweep.empty());
 #endif
   fmt::print("polydem relax {}\n", opt.resume.empty() ? opt.scene : "--resume " + opt.resume);
   if (summary().enabled()) {

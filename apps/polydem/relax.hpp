@@ -116,7 +116,11 @@ bool severalRanks();
 /// (recursive coordinate bisection by cost, rebalanced) or brick.
 std::unique_ptr<StepDriver> makeStepDriver(const integrators::DemSimulation& sim, const std::string& decomposition);
 /// The relax features a parallel run does not have yet are refused (ConfigError naming the key).
-void requireParallelSupport(const RelaxScene& scene, bool sweep);
+void requireParallelSupport(bool sweep);
+/// Collective: compressStart() with the steps on the ranks (rank 0 drives, prints and writes; the others
+/// serve); on return every rank's `start` holds the compressed particles and rank 0's outcome.
+void compressOnRanks(const RelaxScene& scene, integrators::SoftCompression& c, Start& start, const RunContext& run,
+                     bool quiet, const std::string& decomposition);
 #else
 inline bool severalRanks() { return false; }
 #endif

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <bit>
 #include <numeric>
 
 #include "apps/polydem/relax.hpp"
@@ -181,30 +182,149 @@ class MpiDriver final : public StepDriver {
   parallel::ParallelStats start_, end_;
 };
 
+/// A soft compression's steps on the ranks (integrators::CompressionEngine): rank 0 runs compressStart() with
+/// this engine, every call a command its followers serve in serve() until finish().
+class MpiCompression final : public integrators::CompressionEngine {
+ public:
+  MpiCompression(const integrators::DemSimulation& sim, parallel::DecompositionKind kind)
+      : dem_(sim.state(), sim.settings(), kind) {
+    if (parallel::isRoot()) parallel::setFollowersWaiting(true);
+  }
+
+  void advance(std::int64_t steps) override {
+    command(parallel::Command::Advance, steps);
+    collective([&] { dem_.advance(steps, false); });
+  }
+  void growRadii(double factor) override {
+    command(parallel::Command::GrowRadii, std::bit_cast<std::int64_t>(factor));
+    collective([&] { dem_.growRadii(factor); });
+  }
+  double maxOverlapRatio() override {
+    command(parallel::Command::MaxOverlap, 0);
+    double r = 0.0;
+    collective([&] { r = dem_.maxOverlapRatio(); });
+    return r;
+  }
+  void sync(integrators::DemSimulation& sim) override {
+    command(parallel::Command::Sync, 0);
+    integrators::DemState state;
+    collective([&] { state = dem_.gather(); });
+    sim = integrators::DemSimulation::restore(state, sim.settings());
+  }
+  void finish() {
+    command(parallel::Command::Stop, 0);
+    parallel::setFollowersWaiting(false);
+  }
+  /// Ranks > 0: serve until rank 0's finish().
+  void serve() {
+    try {
+      for (;;) {
+        parallel::Command c;
+        parallel::broadcast(c);
+        switch (c.op) {
+          case parallel::Command::Advance:
+            dem_.advance(c.value, false);
+            break;
+          case parallel::Command::GrowRadii:
+            dem_.growRadii(std::bit_cast<double>(c.value));
+            break;
+          case parallel::Command::MaxOverlap:
+            dem_.maxOverlapRatio();
+            break;
+          case parallel::Command::Sync:
+            dem_.gather();
+            break;
+          case parallel::Command::Stop:
+            return;
+          case parallel::Command::Fail:
+            parallel::exitFollower(static_cast<int>(c.value));
+          default:
+            parallel::rankFailure(fmt::format("unknown command {} from rank 0", c.op), 1);
+        }
+      }
+    } catch (const parallel::CollectiveError&) {
+      throw;  // every rank throws it; rank 0 reports it
+    } catch (const std::exception& e) {
+      parallel::rankFailure(e.what(), 1);
+    }
+  }
+
+ private:
+  static void command(parallel::Command::Op op, std::int64_t value) {
+    parallel::Command c{op, value};
+    parallel::broadcast(c);
+  }
+  template <class F>
+  void collective(F f) {
+    try {
+      f();
+    } catch (const parallel::CollectiveError&) {
+      parallel::setFollowersWaiting(false);
+      throw;
+    } catch (const std::exception& e) {
+      parallel::rankFailure(e.what(), 1);
+    }
+  }
+
+  parallel::DistributedDem dem_;
+};
+
+parallel::DecompositionKind decompositionKind(const std::string& decomposition) {
+  if (decomposition != "rcb" && decomposition != "brick") {
+    throw ConfigError(fmt::format("--decomposition {}: expected rcb or brick", decomposition));
+  }
+  return decomposition == "brick" ? parallel::DecompositionKind::Brick : parallel::DecompositionKind::Bisection;
+}
+
 }  // namespace
 
 bool severalRanks() { return parallel::size() > 1; }
 
-std::unique_ptr<StepDriver> makeStepDriver(const integrators::DemSimulation& sim, const std::string& decomposition) {
-  if (decomposition != "rcb" && decomposition != "brick") {
-    throw ConfigError(fmt::format("--decomposition {}: expected rcb or brick", decomposition));
+void compressOnRanks(const RelaxScene& scene, integrators::SoftCompression& c, Start& start, const RunContext& run,
+                     bool quiet, const std::string& decomposition) {
+  MpiCompression engine(c.simulation(), decompositionKind(decomposition));
+  c.runOn(&engine);
+  if (parallel::isRoot()) {
+    compressStart(scene, c, start, run, quiet, true);
+    engine.finish();
+  } else {
+    engine.serve();
   }
-  return std::make_unique<MpiDriver>(
-      sim, decomposition == "brick" ? parallel::DecompositionKind::Brick : parallel::DecompositionKind::Bisection);
+  c.runOn(nullptr);
+  // Every rank needs the compressed state for the run (each constructs the distributed run from it) and the
+  // outcome: rank 0's, broadcast.
+  std::int32_t outcome[2] = {start.targetNotReached ? 1 : 0, start.interrupted ? 1 : 0};
+  parallel::broadcast(outcome, 2);
+  if (!parallel::isRoot()) {
+    start.particles = c.particles();
+    start.box = c.simulation().box();
+    if (outcome[0] != 0) start.targetNotReached = "(rank 0 reports it)";
+    start.interrupted = outcome[1] != 0;
+  }
+  ParticleStore& p = start.particles;  // every array, so that every rank holds rank 0's store byte for byte
+  auto all = [](auto& a) { parallel::broadcast(a.data(), static_cast<std::size_t>(a.size())); };
+  all(p.position());
+  all(p.velocity());
+  all(p.force());
+  all(p.radius());
+  all(p.inverseMass());
+  all(p.id());
+  if (p.features().rotation) {
+    all(p.angularVelocity());
+    all(p.torque());
+    all(p.inverseInertia());
+  }
 }
 
-void requireParallelSupport(const RelaxScene& scene, bool sweep) {
+std::unique_ptr<StepDriver> makeStepDriver(const integrators::DemSimulation& sim, const std::string& decomposition) {
+  return std::make_unique<MpiDriver>(sim, decompositionKind(decomposition));
+}
+
+void requireParallelSupport(bool sweep) {
   const int ranks = parallel::size();
   if (sweep) {
     throw ConfigError(fmt::format(
         "relax --sweep runs on one process (it reruns the scene per setting); run it without mpirun ({} ranks given)",
-        ranks));
-  }
-  if (scene.compression) {
-    throw ConfigError(fmt::format(
-        "[compression] (soft compression, radii growing) is not supported on {} MPI ranks yet (docs/parallel.md): "
-        "compress on one process (polydem relax without mpirun, output.final = \"packed.h5\"), then relax that "
-        "file on several ranks with particles.file = \"packed.h5\"",
         ranks));
   }
 }

@@ -120,6 +120,7 @@ void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Sta
   double lastCheckpoint = 0.0;
   std::int64_t reported = c.progress().steps / 1000;
   auto writeCheckpoint = [&] {
+    c.sync();  // several MPI ranks: the state gathered to rank 0
     io::writeCheckpoint(scene.checkpoint, makeCheckpoint(c.simulation(), run, &c.progress()));
     lastCheckpoint = clock.seconds();
   };
@@ -131,8 +132,7 @@ void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Sta
     const std::int64_t steps = c.progress().steps;
     if (!quiet && steps / 1000 > reported) {
       fmt::print(stderr, "  compression: step {:>9}  {}  packing fraction {:.4f}  max overlap / r {:.4f}\n", steps,
-                 c.growing() ? "growing " : "relaxing", c.simulation().packingFraction(),
-                 c.simulation().contactStats().maxOverlapRatio);
+                 c.growing() ? "growing " : "relaxing", c.packingFraction(), c.maxOverlapRatio());
     }
     const std::int64_t interval = scene.checkpointInterval;
     const bool byStep = interval > 0 && steps / interval != before / interval;  // crossed a multiple
@@ -144,6 +144,7 @@ void compressStart(const RelaxScene& scene, integrators::SoftCompression& c, Sta
     }
   }
   if (interrupted && checkpoints) writeCheckpoint();
+  c.sync();  // several MPI ranks: the state gathered to rank 0, before the result reads it
   const integrators::CompressionResult r = c.result();
   fmt::print(
       "soft compression: packing fraction {:.4f} after {} growth + {} relaxation steps, max overlap / r "

@@ -80,6 +80,32 @@ progress_interval = 0.0
 timeseries_interval = 500
 ")
 
+# Soft compression (radii growing under viscous damping, builds between steps as the radii grow) from packing
+# 0.3 to 0.5, then 800 steps of the run: periodic, uniform volume of size ratio 4.
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_compress.toml "[particles]
+count = 1200
+distribution = \"uniform-volume\"
+rmin = 1e-3
+omega = 4.0
+packing_fraction = 0.3
+density = 2500.0
+seed = 7
+[contact]
+stiffness = 1e4
+restitution = 0.7
+[velocities]
+overlap = 0.02
+[compression]
+packing_fraction = 0.5
+growth_rate = 0.02
+[run]
+steps = 800
+check_interval = 100
+progress_interval = 0.0
+[output]
+timeseries_interval = 100
+")
+
 # Hertz with Hertz-Mindlin friction, viscous damping, half-step dashpot velocity, walls across gravity.
 string(REPLACE "stiffness = 1e4" "law = \"hertz\"\nstiffness = 1e8\ntangential = \"hertz-mindlin\"\npoisson_ratio = 0.3"
                _polydem_mpi_hertz "${_polydem_mpi_walls}")
@@ -90,8 +116,8 @@ file(WRITE ${POLYDEM_MPI_WORK}/mpi_hertz.toml "${_polydem_mpi_hertz}")
 set(_polydem_mpi ${MPIEXEC_EXECUTABLE})
 # On 2 busy cores a run of 2-4 ranks takes 10-25 s (every wait for a message gives the core away): one rank
 # count per scene runs in the checked passes, the others are labelled slow too.
-set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3 mpi_gas_np2)
-foreach(scene walls periodic friction hertz gas)
+set(_polydem_mpi_quick mpi_walls_np2 mpi_periodic_np3 mpi_friction_np4 mpi_hertz_np3 mpi_gas_np2 mpi_compress_np3)
+foreach(scene walls periodic friction hertz gas compress)
   add_test(NAME mpi_${scene}_serial
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_compare.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                    ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial -q)

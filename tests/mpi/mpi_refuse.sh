@@ -20,8 +20,6 @@ expect() {  # expect REGEX ARGS...: mpirun -np 2 polydem ARGS exits 2 with REGEX
   [ -e final.txt ] && fail "polydem $* on 2 ranks wrote a final state"
   return 0
 }
-expect "\[compression\].*not supported on 2 MPI ranks" relax scene.toml -q --set output.final=\"final.txt\" \
-  --set compression.packing_fraction=0.4
 expect "--sweep runs on one process" relax scene.toml -q --sweep dt-factor=50,100
 expect "polydem jam runs on one process.*only .polydem relax." jam -n 50 -o final.txt
 expect "polydem minimise runs on one process" minimise -n 50 -o final.txt
