@@ -36,6 +36,46 @@ Spread spread(const std::vector<parallel::RankStats>& ranks, Field field) {
   return s;
 }
 
+/// Rank 0: run `f`; a collective error means the followers are no longer waiting for commands.
+template <class F>
+void collective(F f) {
+  try {
+    f();
+  } catch (const parallel::CollectiveError&) {
+    parallel::setFollowersWaiting(false);
+    throw;
+  } catch (const std::exception& e) {
+    parallel::rankFailure(e.what(), 1);  // rank 0 alone: the others wait in a collective
+  }
+}
+
+void command(parallel::Command::Op op, std::int64_t value) {
+  parallel::Command c{op, value};
+  parallel::broadcast(c);
+}
+
+enum class Served { Next, Stop, Unknown };
+
+/// Ranks > 0: do rank 0's commands through `serve(command)` until it answers Stop; Fail and unknown commands
+/// end the process here.
+template <class Serve>
+void serveCommands(Serve serve) {
+  try {
+    for (;;) {
+      parallel::Command c;
+      parallel::broadcast(c);
+      if (c.op == parallel::Command::Fail) parallel::exitFollower(static_cast<int>(c.value));
+      const Served s = serve(c);
+      if (s == Served::Stop) return;
+      if (s == Served::Unknown) parallel::rankFailure(fmt::format("unknown command {} from rank 0", c.op), 1);
+    }
+  } catch (const parallel::CollectiveError&) {
+    throw;  // every rank throws it; rank 0 reports it
+  } catch (const std::exception& e) {
+    parallel::rankFailure(e.what(), 1);
+  }
+}
+
 class MpiDriver final : public StepDriver {
  public:
   MpiDriver(const integrators::DemSimulation& sim, parallel::DecompositionKind kind)
@@ -47,8 +87,7 @@ class MpiDriver final : public StepDriver {
   bool root() const override { return parallel::isRoot(); }
 
   std::int64_t advance(std::int64_t steps) override {
-    parallel::Command c{parallel::Command::Advance, steps};
-    parallel::broadcast(c);
+    command(parallel::Command::Advance, steps);
     collective([&] { dem_.advance(steps, true); });
     return dem_.step();
   }
@@ -56,16 +95,14 @@ class MpiDriver final : public StepDriver {
   bool interrupted() const override { return dem_.interrupted(); }
 
   void sync(integrators::DemSimulation& sim) override {
-    parallel::Command c{parallel::Command::Sync, 0};
-    parallel::broadcast(c);
+    command(parallel::Command::Sync, 0);
     integrators::DemState state;
     collective([&] { state = dem_.gather(); });
     sim = integrators::DemSimulation::restore(state, sim.settings());
   }
 
   void finish() override {
-    parallel::Command c{parallel::Command::Stop, 0};
-    parallel::broadcast(c);
+    command(parallel::Command::Stop, 0);
     parallel::setFollowersWaiting(false);
     end_ = dem_.stats();
   }
@@ -124,50 +161,27 @@ class MpiDriver final : public StepDriver {
   }
 
   RunSummary serve() override {
-    try {
-      for (;;) {
-        parallel::Command c;
-        parallel::broadcast(c);
-        switch (c.op) {
-          case parallel::Command::Advance:
-            dem_.advance(c.value, true);
-            break;
-          case parallel::Command::Sync:
-            dem_.gather();
-            break;
-          case parallel::Command::Stop: {
-            dem_.stats();
-            RunSummary s;
-            s.interrupted = dem_.interrupted();
-            return s;
-          }
-          case parallel::Command::Fail:
-            parallel::exitFollower(static_cast<int>(c.value));
-          default:
-            parallel::rankFailure(fmt::format("unknown command {} from rank 0", c.op), 1);
-        }
+    serveCommands([&](const parallel::Command& c) {
+      switch (c.op) {
+        case parallel::Command::Advance:
+          dem_.advance(c.value, true);
+          return Served::Next;
+        case parallel::Command::Sync:
+          dem_.gather();
+          return Served::Next;
+        case parallel::Command::Stop:
+          dem_.stats();
+          return Served::Stop;
+        default:
+          return Served::Unknown;
       }
-    } catch (const parallel::CollectiveError&) {
-      throw;  // every rank throws it; rank 0 reports it
-    } catch (const std::exception& e) {
-      parallel::rankFailure(e.what(), 1);
-    }
+    });
+    RunSummary s;
+    s.interrupted = dem_.interrupted();
+    return s;
   }
 
  private:
-  /// Run `f`; a collective error means the followers are no longer waiting for commands.
-  template <class F>
-  void collective(F f) {
-    try {
-      f();
-    } catch (const parallel::CollectiveError&) {
-      parallel::setFollowersWaiting(false);
-      throw;
-    } catch (const std::exception& e) {
-      parallel::rankFailure(e.what(), 1);  // rank 0 alone: the others wait in a collective
-    }
-  }
-
   static std::string ghostsText(const parallel::ParallelStats& s) {
     if (s.ranks.empty()) return {};
     const Spread owned = spread(s.ranks, [](const parallel::RankStats& r) { return r.owned; });
@@ -217,55 +231,29 @@ class MpiCompression final : public integrators::CompressionEngine {
   }
   /// Ranks > 0: serve until rank 0's finish().
   void serve() {
-    try {
-      for (;;) {
-        parallel::Command c;
-        parallel::broadcast(c);
-        switch (c.op) {
-          case parallel::Command::Advance:
-            dem_.advance(c.value, false);
-            break;
-          case parallel::Command::GrowRadii:
-            dem_.growRadii(std::bit_cast<double>(c.value));
-            break;
-          case parallel::Command::MaxOverlap:
-            dem_.maxOverlapRatio();
-            break;
-          case parallel::Command::Sync:
-            dem_.gather();
-            break;
-          case parallel::Command::Stop:
-            return;
-          case parallel::Command::Fail:
-            parallel::exitFollower(static_cast<int>(c.value));
-          default:
-            parallel::rankFailure(fmt::format("unknown command {} from rank 0", c.op), 1);
-        }
+    serveCommands([&](const parallel::Command& c) {
+      switch (c.op) {
+        case parallel::Command::Advance:
+          dem_.advance(c.value, false);
+          return Served::Next;
+        case parallel::Command::GrowRadii:
+          dem_.growRadii(std::bit_cast<double>(c.value));
+          return Served::Next;
+        case parallel::Command::MaxOverlap:
+          dem_.maxOverlapRatio();
+          return Served::Next;
+        case parallel::Command::Sync:
+          dem_.gather();
+          return Served::Next;
+        case parallel::Command::Stop:
+          return Served::Stop;
+        default:
+          return Served::Unknown;
       }
-    } catch (const parallel::CollectiveError&) {
-      throw;  // every rank throws it; rank 0 reports it
-    } catch (const std::exception& e) {
-      parallel::rankFailure(e.what(), 1);
-    }
+    });
   }
 
  private:
-  static void command(parallel::Command::Op op, std::int64_t value) {
-    parallel::Command c{op, value};
-    parallel::broadcast(c);
-  }
-  template <class F>
-  void collective(F f) {
-    try {
-      f();
-    } catch (const parallel::CollectiveError&) {
-      parallel::setFollowersWaiting(false);
-      throw;
-    } catch (const std::exception& e) {
-      parallel::rankFailure(e.what(), 1);
-    }
-  }
-
   parallel::DistributedDem dem_;
 };
 
