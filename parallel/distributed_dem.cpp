@@ -728,69 +728,52 @@ double DistributedDem::orderDecay() {
   return static_cast<double>(misplaced) / static_cast<double>(n);
 }
 
-void DistributedDem::resort() {
-  // DemSimulation::resortParticles(): wrap, the Morton order of all centres (integrators::mortonOrder on the
-  // global centres in key order, gathered on every rank: the serial function gives the serial order), new keys
-  // = new serial slots, then a build, whose migration puts every rank's particles in the new key order.
-  wrapOwned();
-  const auto N = static_cast<std::size_t>(total_);
+Eigen::MatrixXd DistributedDem::gatherOwned(const Eigen::MatrixXd& rows) {
+  // Per owned particle (key, its column of `rows`), from every rank; then placed by key.
+  const auto width = static_cast<std::size_t>(rows.rows());
   std::vector<double> mine;
-  mine.reserve(4 * ownedSlots_.size());
+  mine.reserve((width + 1) * ownedSlots_.size());
   for (const Index i : ownedSlots_) {
     mine.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
-    for (int k = 0; k < 3; ++k) mine.push_back(x_(k, i));
+    for (std::size_t k = 0; k < width; ++k) mine.push_back(rows(static_cast<Index>(k), i));
   }
+  const auto N = static_cast<std::size_t>(total_);
   std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(static_cast<std::size_t>(size_) + 1, 0);
-  std::vector<double> all(4 * N);
+  std::vector<double> all((width + 1) * N);
   {
     CommTimer timer(stats_.commSeconds);
-    int count = toInt(mine.size(), "re-sort centres");
+    const int count = toInt(mine.size(), "gathered particle values");
     mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
     for (std::size_t q = 0; q < counts.size(); ++q) offsets[q + 1] = offsets[q] + counts[q];
     if (static_cast<std::size_t>(offsets.back()) != all.size()) {
-      throw std::logic_error("DistributedDem::resort: owned particles do not add up to the system");
+      throw std::logic_error("DistributedDem::gatherOwned: owned particles do not add up to the system");
     }
     mpiCheck(MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE,
                             MPI_COMM_WORLD),
              "MPI_Allgatherv");
   }
-  Eigen::Matrix3Xd centres(3, static_cast<Index>(N));
+  Eigen::MatrixXd out(static_cast<Index>(width), static_cast<Index>(N));
   for (std::size_t o = 0; o < N; ++o) {
-    const auto key = static_cast<Index>(all[4 * o]);
-    for (int k = 0; k < 3; ++k) centres(k, key) = all[4 * o + 1 + static_cast<std::size_t>(k)];
+    const double* rec = all.data() + (width + 1) * o;
+    const auto key = static_cast<Index>(rec[0]);
+    for (std::size_t k = 0; k < width; ++k) out(static_cast<Index>(k), key) = rec[1 + k];
   }
+  return out;
+}
+
+void DistributedDem::resort() {
+  // DemSimulation::resortParticles(): wrap, the Morton order of all centres (integrators::mortonOrder on the
+  // global centres in key order, gathered on every rank: the serial function gives the serial order), new keys
+  // = new serial slots, then a build, whose migration puts every rank's particles in the new key order.
+  wrapOwned();
+  const Eigen::Matrix3Xd centres = gatherOwned(x_);
   const std::vector<Index> order = integrators::mortonOrder(centres, box_);
-  std::vector<Index> newKey(N);
-  for (std::size_t k = 0; k < N; ++k) newKey[static_cast<std::size_t>(order[k])] = static_cast<Index>(k);
+  std::vector<Index> newKey(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) newKey[static_cast<std::size_t>(order[k])] = static_cast<Index>(k);
   for (const Index i : ownedSlots_)
     key_[static_cast<std::size_t>(i)] = newKey[static_cast<std::size_t>(key_[static_cast<std::size_t>(i)])];
   ++resorts_;
   rebuild();
-}
-
-Eigen::VectorXd DistributedDem::globalRadii() {
-  std::vector<double> mine;
-  mine.reserve(2 * ownedSlots_.size());
-  for (const Index i : ownedSlots_) {
-    mine.push_back(static_cast<double>(key_[static_cast<std::size_t>(i)]));
-    mine.push_back(r_[i]);
-  }
-  std::vector<int> counts(static_cast<std::size_t>(size_)), offsets(static_cast<std::size_t>(size_) + 1, 0);
-  std::vector<double> all(2 * static_cast<std::size_t>(total_));
-  CommTimer timer(stats_.commSeconds);
-  const int count = toInt(mine.size(), "radii");
-  mpiCheck(MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Allgather");
-  for (std::size_t q = 0; q < counts.size(); ++q) offsets[q + 1] = offsets[q] + counts[q];
-  if (static_cast<std::size_t>(offsets.back()) != all.size()) {
-    throw std::logic_error("DistributedDem::globalRadii: owned particles do not add up to the system");
-  }
-  mpiCheck(MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), offsets.data(), MPI_DOUBLE,
-                          MPI_COMM_WORLD),
-           "MPI_Allgatherv");
-  Eigen::VectorXd radii(static_cast<Index>(total_));
-  for (std::size_t o = 0; o < static_cast<std::size_t>(total_); ++o)
-    radii[static_cast<Index>(all[2 * o])] = all[2 * o + 1];
-  return radii;
 }
 
 void DistributedDem::rebuild() {
@@ -1068,7 +1051,9 @@ void DistributedDem::growRadii(double factor) {
   }
   const double f3 = factor * factor * factor;
   auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get());
-  if (chooser && sampleRadii_.size() == 0) sampleRadii_ = globalRadii();  // once: only a compression pays it
+  if (chooser && sampleRadii_.size() == 0) {
+    sampleRadii_ = gatherOwned(r_.transpose()).row(0).transpose();  // once: only a compression pays it
+  }
   growth_ += (factor - 1.0) * rmaxGlobal_;
   rmaxGlobal_ *= factor;
   r_ *= factor;

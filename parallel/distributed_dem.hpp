@@ -128,8 +128,9 @@ class DistributedDem {
   /// on every rank.
   void wrapOwned();
   void rebuild();
-  /// Collective: every particle's radius, by key, on every rank.
-  Eigen::VectorXd globalRadii();
+  /// Collective: column k = the column of `rows` (one per local particle) of the particle with key k, for every
+  /// particle of the system, on every rank (its owner's value).
+  Eigen::MatrixXd gatherOwned(const Eigen::MatrixXd& rows);
   /// Collective: DemSimulation::orderDecay() of the global slot order.
   double orderDecay();
   /// Collective: DemSimulation::resortParticles(): new keys in the Morton order of all centres, then a build.
