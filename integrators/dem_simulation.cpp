@@ -674,7 +674,9 @@ void DemSimulation::growRadii(double factor) {
   // Forces are not recomputed here (that would advance the tangential springs twice): the next step's
   // first half-kick uses forces of the old radii, an O(dr) error that only compression runs see.
   if (growthSinceBuild_ > 0.5 * verlet_.skin()) rebuild();
-  initialEnergy_ = energies().total();
+  // Only a dissipation-free run checks its energy; a damped one (every soft compression) keeps its reference
+  // untouched, which also keeps a distributed compression's checkpoint byte-identical (parallel/distributed_dem).
+  if (conservative_) initialEnergy_ = energies().total();
 }
 
 double DemSimulation::packingFraction() const { return packingFraction(particles_.radius(), box_); }

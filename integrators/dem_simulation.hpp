@@ -174,7 +174,8 @@ class DemSimulation {
   /// Multiply every radius by `factor` (>= 1) at constant density (masses by factor^3, inertia by
   /// factor^5), for soft compression. The neighbour list stays valid: the rebuild criterion becomes
   /// 2 max|dx| + 2 max(dr) > skin. The time step is kept (contacts only get longer as masses grow);
-  /// energy is no longer conserved, so the energy check restarts from the current total. O(N).
+  /// energy is no longer conserved, so the energy check of a dissipation-free run restarts from the current total
+  /// (O(N + P); a damped run has no energy check and keeps its reference). O(N).
   void growRadii(double factor);
   /// Total sphere volume / box volume.
   double packingFraction() const;

@@ -1049,6 +1049,10 @@ void DistributedDem::growRadii(double factor) {
   if (!(factor >= 1.0 && std::isfinite(factor))) {
     throw ConfigError(fmt::format("growRadii: factor must be >= 1, got {}", factor));
   }
+  if (conservative_) {
+    // The serial run restarts its energy check from the total energy, a global sum in serial order.
+    throw std::logic_error("DistributedDem::growRadii: a dissipation-free run (its energy reference) is not supported");
+  }
   const double f3 = factor * factor * factor;
   auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get());
   if (chooser && sampleRadii_.size() == 0) {
