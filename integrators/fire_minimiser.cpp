@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <utility>
 
 #include "broadphase/parallel.hpp"
@@ -14,6 +15,7 @@
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
 #include "integrators/dem_simulation.hpp"  // mortonOrder
+#include "integrators/fire_descent.hpp"
 #include "polydem/config.hpp"
 
 namespace polydem::integrators {
@@ -29,37 +31,9 @@ double resolveSkin(double skin, const ParticleStore& particles) {
   return 0.2 * particles.radius().minCoeff();
 }
 
-/// The two largest squared displacements since the list's build, for the rebuild rule (listStale()).
-struct LargestTwo {
-  double first = 0.0, second = 0.0;
-  // Branch-free (the same values as `if (dsq > second) {second = min(dsq, first); first = max(dsq, first);}`,
-  // a NaN left out as there): the update pass's one loop-carried dependency is then two maxima per particle.
-  void add(double dsq) {
-    second = std::max(second, std::min(dsq, first));
-    first = std::max(first, dsq);
-  }
-  double drift() const { return std::sqrt(first) + std::sqrt(second); }
-};
-
-/// The sums of FIRE's reduction pass: P = F.v, |v|^2, |F|^2, sum (F_i.v_i)/m_i and sum |F_i|^2/m_i^2 (the
-/// kicked |v|^2 without a second pass), and the largest |F_i|^2.
-struct FireSums {
-  double power = 0.0, vv = 0.0, ff = 0.0, fvm = 0.0, ffm = 0.0, fmaxSq = 0.0;
-  void add(const FireSums& o) {
-    power += o.power;
-    vv += o.vv;
-    ff += o.ff;
-    fvm += o.fvm;
-    ffm += o.ffm;
-    fmaxSq = std::max(fmaxSq, o.fmaxSq);
-  }
-};
-
-/// The minimisers' passes run over fixed chunks of particles, each chunk's sums kept apart and added in chunk
-/// order afterwards: the result is the same for any thread count (the threads only share out the chunks).
-constexpr Index kFireChunk = 4096;
-
-Index fireChunks(Index n) { return (n + kFireChunk - 1) / kFireChunk; }
+using fire::LargestTwo;
+constexpr Index kFireChunk = fire::kChunk;
+Index fireChunks(Index n) { return fire::chunkCount(n); }
 
 /// The threaded path out of line, as in dem_simulation.cpp: the OpenMP region takes the address of its copy
 /// of `body`, which would otherwise make the serial loop reload the captured values after each store.
@@ -87,32 +61,6 @@ double driftOfChunks(const std::vector<double>& maxima) {
   LargestTwo largest;
   for (const double m : maxima) largest.add(m);
   return largest.drift();
-}
-
-/// The sums of particles [begin, end): even and odd ones into separate sums added at the end (two add
-/// chains per sum instead of one; four measured the same). The order is fixed, so the result is too.
-FireSums reduceForFire(Index begin, Index end, const double* f, const double* v, const double* im) {
-  double power[2] = {}, vv[2] = {}, ff[2] = {}, fvm[2] = {}, ffm[2] = {}, fmax[2] = {};
-  auto particle = [&](Index i, int lane) {
-    const double* fi = f + 3 * i;
-    const double* vi = v + 3 * i;
-    const double fsq = fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2];
-    const double fv = fi[0] * vi[0] + fi[1] * vi[1] + fi[2] * vi[2];
-    power[lane] += fv;
-    vv[lane] += vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2];
-    ff[lane] += fsq;
-    fvm[lane] += fv * im[i];
-    ffm[lane] += fsq * im[i] * im[i];
-    fmax[lane] = std::max(fmax[lane], fsq);
-  };
-  Index i = begin;
-  for (; i + 1 < end; i += 2) {
-    particle(i, 0);
-    particle(i + 1, 1);
-  }
-  if (i < end) particle(i, 0);
-  return {power[0] + power[1], vv[0] + vv[1],   ff[0] + ff[1],
-          fvm[0] + fvm[1],     ffm[0] + ffm[1], std::max(fmax[0], fmax[1])};
 }
 
 void requirePositive(double value, const char* key) {
@@ -282,7 +230,7 @@ void FireMinimiser::computeForces() {
   forceSeconds_ += seconds(t0, Clock::now());
 }
 
-FireMinimiser::StiffnessRule FireMinimiser::stiffnessRule() const {
+fire::StiffnessRule FireMinimiser::stiffnessRule() const {
   const contact::ContactParameters& p = model_.parameters();
   if (p.normal == contact::NormalModel::Hertz) {
     // dF/d(delta) = 3/2 K sqrt(R_eff delta) at delta = reference x R_eff.
@@ -294,28 +242,8 @@ FireMinimiser::StiffnessRule FireMinimiser::stiffnessRule() const {
 
 void FireMinimiser::updateMasses() {
   // m_i = k_ii + sum_j k_ij over the candidates of i (and its walls): see the header (Jacobi preconditioning).
-  Eigen::VectorXd& im = particles_.inverseMass();
-  const Eigen::VectorXd& r = particles_.radius();
-  const Index n = particles_.count();
-  const contact::ContactList& list = verlet_.list();
-  const StiffnessRule stiffness = stiffnessRule();
-  for (Index i = 0; i < n; ++i) im[i] = stiffness(r[i], r[i]);
-  for (Index i = 0; i < n; ++i) {
-    const double ri = r[i];
-    double mi = im[i];  // j != i: the stores to im[j] leave it alone
-    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
-      const Index j = list.neighbour[c];
-      const double k = stiffness(ri, r[j]);
-      mi += k;
-      im[j] += k;
-    }
-    im[i] = mi;
-  }
-  for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
-    const Index i = list.wallParticle[c];
-    im[i] += 2.0 * stiffness(r[i], r[i]);  // R_eff = r_i against a wall
-  }
-  for (Index i = 0; i < n; ++i) im[i] = 1.0 / im[i];
+  fire::jacobiMasses(verlet_.list(), particles_.radius().data(), particles_.count(), stiffnessRule(),
+                     particles_.inverseMass().data());
 }
 
 void FireMinimiser::rebuild() {
@@ -412,7 +340,18 @@ Eigen::Matrix3Xd FireMinimiser::wrappedPositions() const {
 }
 
 double FireMinimiser::packingFraction() const {
-  return 4.0 / 3.0 * kPi * particles_.radius().array().cube().sum() / box_.volume();
+  // Sum r^3 by chunks in chunk order, as measure() (and the distributed run) adds it.
+  const Index n = particles_.count();
+  double volume = 0.0;
+  for (Index c = 0; c < fireChunks(n); ++c) {
+    double chunk = 0.0;
+    for (Index i = c * kFireChunk; i < std::min(n, (c + 1) * kFireChunk); ++i) {
+      const double r = particles_.radius()[i];
+      chunk += r * r * r;
+    }
+    volume += chunk;
+  }
+  return 4.0 / 3.0 * kPi * volume / box_.volume();
 }
 
 double FireMinimiser::contactForceAtPressure(double reducedPressure) const {
@@ -421,96 +360,32 @@ double FireMinimiser::contactForceAtPressure(double reducedPressure) const {
 }
 
 MinimiserReport FireMinimiser::measure() const {
-  MinimiserReport rep;
-  const contact::ForceContext ctx = context();
-  const contact::ContactList& list = verlet_.list();
-  const bool hertz = model_.parameters().normal == contact::NormalModel::Hertz;
-  const auto lin = model_.linearParams();
-  const auto hz = model_.hertzParams();
-  auto normalForce = [&](double overlap, double reff) {
-    return hertz ? contact::HertzNormal::force(hz, overlap, 0.0, 1.0, reff).force
-                 : contact::LinearNormal::force(lin, overlap, 0.0, 1.0, reff).force;
-  };
-  double forceSum = 0.0, virial = 0.0;
-  const double* x = ctx.position;
-  const double* r = ctx.radius;
-  for (Index i = 0; i < ctx.count; ++i) {
-    for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
-      const Index j = list.neighbour[c];
-      double dsq = 0.0;
-      for (int k = 0; k < 3; ++k) {  // the kernel's minimum image
-        double d = x[3 * i + k] - x[3 * j + k];
-        if (d > ctx.halfLength[k]) {
-          d -= ctx.length[k];
-        } else if (d < -ctx.halfLength[k]) {
-          d += ctx.length[k];
-        }
-        dsq += d * d;
-      }
-      const double sumR = r[i] + r[j];
-      if (dsq >= sumR * sumR) continue;
-      const double dist = std::sqrt(dsq);
-      const double overlap = sumR - dist;
-      const double reff = r[i] * r[j] / sumR;
-      const double fn = normalForce(overlap, reff);
-      ++rep.contacts;
-      rep.energy += model_.normalEnergy(overlap, reff);
-      forceSum += fn;
-      virial += fn * dist;
-      rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / std::min(r[i], r[j]));
-      rep.maxOverlap = std::max(rep.maxOverlap, overlap);
-    }
+  // Per particle its row's contacts and walls (fire::tallyContacts), then the particles' sums by chunks in
+  // chunk order (fire::measureChunk): the order a distributed run reproduces (parallel/distributed_fire.hpp).
+  const Index n = particles_.count();
+  measurePart_.assign(3 * static_cast<std::size_t>(n), 0.0);
+  const fire::ContactTally tally = fire::tallyContacts(
+      model_, context(), [](Index) { return true; }, measurePart_.data());
+  fire::MeasureSums sums;
+  for (Index c = 0; c < fireChunks(n); ++c) {
+    const fire::MeasureSums part = fire::measureChunk(c * kFireChunk, std::min(n, (c + 1) * kFireChunk),
+                                                      measurePart_.data(), particles_.radius().data());
+    sums.energy += part.energy;
+    sums.force += part.force;
+    sums.virial += part.virial;
+    sums.volume += part.volume;
   }
-  for (std::size_t c = 0; c < list.wallParticle.size(); ++c) {
-    const Index i = list.wallParticle[c];
-    const int face = list.wallFace[c];
-    const int axis = face >> 1;
-    const double gap = (face & 1) ? ctx.length[axis] - x[3 * i + axis] : x[3 * i + axis];
-    const double overlap = r[i] - gap;
-    if (!(overlap > 0.0)) continue;
-    const double fn = normalForce(overlap, r[i]);
-    ++rep.wallContacts;
-    rep.energy += model_.normalEnergy(overlap, r[i]);
-    forceSum += fn;
-    virial += fn * gap;  // the lever from the centre to the wall
-    rep.maxOverlapRatio = std::max(rep.maxOverlapRatio, overlap / r[i]);
-    rep.maxOverlap = std::max(rep.maxOverlap, overlap);
-  }
-  const std::size_t all = rep.contacts + rep.wallContacts;
-  rep.meanContactForce = all > 0 ? forceSum / static_cast<double>(all) : 0.0;
-  rep.pressure = virial / (3.0 * box_.volume());
-  rep.reducedPressure = rep.pressure / pressureUnit_;
   const Eigen::VectorXd& im = particles_.inverseMass();
   double forceSq = 0.0, stepSq = 0.0;  // largest |F_i|^2 and largest Jacobi step |F_i|^2 / m_i^2
-  for (Index i = 0; i < particles_.count(); ++i) {
-    const double fi = particles_.force().col(i).squaredNorm();
+  for (Index i = 0; i < n; ++i) {
+    const double fi = fire::squaredNorm3(particles_.force().data() + 3 * i);
     forceSq = std::max(forceSq, fi);
     stepSq = std::max(stepSq, fi * im[i] * im[i]);
   }
-  rep.maxForce = std::sqrt(forceSq);
-  rep.stepUlps = std::sqrt(stepSq) / (std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff());
-  const double scale = std::max(rep.meanContactForce, settings_.fire.referenceForce);
-  rep.residual = scale > 0.0 ? rep.maxForce / scale : 0.0;
-  rep.packingFraction = packingFraction();
-  return rep;
+  return fire::assembleReport(tally, sums, forceSq, stepSq, box_, pressureUnit_, settings_.fire.referenceForce);
 }
 
-FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrupt) {
-  const FireSettings& fs = settings_.fire;
-  fs.validate();
-  FireResult res;
-  rebuildsInCall_ = 0;
-  broadBuildsInCall_ = 0;
-  const auto callStart = Clock::now();
-  const double broadAtStart = broadSeconds_, forceAtStart = forceSeconds_;
-  double measureSeconds = 0.0;
-  auto timedMeasure = [&] {
-    const auto t0 = Clock::now();
-    MinimiserReport r = measure();
-    measureSeconds += seconds(t0, Clock::now());
-    return r;
-  };
-  MinimiserReport start = timedMeasure();
+void FireMinimiser::prepareDescent(const MinimiserReport& start) {
   if (model_.parameters().normal == contact::NormalModel::Hertz) {
     // Masses from the stiffness at the current overlaps (Hertz stiffens with overlap); 1e-4 without contacts.
     const double ratio = start.maxOverlapRatio > 0.0 ? start.maxOverlapRatio : 1e-4;
@@ -519,76 +394,124 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       updateMasses();
     }
   }
+  particles_.velocity().setZero();
+}
+
+void FireMinimiser::finishCall(FireResult& res) {
+  res.rebuilds = rebuildsInCall_;
+  res.broadPhaseBuilds = broadBuildsInCall_;
+  particles_.velocity().setZero();
+  res.seconds.broadPhase = broadSeconds_ - broadAtStart_;
+  res.seconds.force = forceSeconds_ - forceAtStart_;
+  res.seconds.update = std::max(
+      0.0, seconds(callStart_, Clock::now()) - res.seconds.broadPhase - res.seconds.force - res.seconds.measure);
+}
+
+/// The serial system of fire::descend() (integrators/fire_descent.hpp): the passes by chunks of slots on the
+/// minimiser's threads, sums added in chunk order.
+class FireMinimiser::Serial {
+ public:
+  Serial(FireMinimiser& m, bool stopOnInterrupt)
+      : m_(m),
+        stopOnInterrupt_(stopOnInterrupt),
+        chunkSums_(static_cast<std::size_t>(fireChunks(m.particles_.count()))) {}
+  MinimiserReport measure() const { return m_.measure(); }
+  void prepare(const MinimiserReport& start) { m_.prepareDescent(start); }
+  double overlapFloor() const { return 64.0 * std::numeric_limits<double>::epsilon() * m_.box_.lengths().maxCoeff(); }
+  bool interrupted() const { return stopOnInterrupt_ && interruptRequested(); }
+  fire::FireSums sums() {
+    const double* f = m_.particles_.force().data();
+    const double* v = m_.particles_.velocity().data();
+    const double* im = m_.particles_.inverseMass().data();
+    fire::FireSums* out = chunkSums_.data();
+    forChunks(m_.particles_.count(), m_.settings_.threads,
+              [=](Index c, Index begin, Index end) { out[c] = fire::reduceChunk(begin, end, f, v, im); });
+    fire::FireSums sums;
+    for (const fire::FireSums& c : chunkSums_) sums.add(c);
+    return sums;
+  }
+  void restart(double dt) {
+    double* x = m_.particles_.position().data();
+    double* v = m_.particles_.velocity().data();
+    for (Index a = 0; a < 3 * m_.particles_.count(); ++a) {
+      x[a] -= 0.5 * dt * v[a];
+      v[a] = 0.0;
+    }
+  }
+  void advance(double dt, double keep, double toward) {
+    double* x = m_.particles_.position().data();
+    double* v = m_.particles_.velocity().data();
+    const double* f = m_.particles_.force().data();
+    const double* im = m_.particles_.inverseMass().data();
+    const double* ref = m_.verlet_.reference().data();
+    double* maxima = m_.chunkMaxima_.data();
+    forChunks(m_.particles_.count(), m_.settings_.threads, [=](Index c, Index begin, Index end) {
+      LargestTwo largest;  // squared displacements since the build
+      for (Index i = begin; i < end; ++i) largest.add(fire::kickMixDrift(i, dt, keep, toward, f, v, x, im, ref));
+      maxima[2 * c] = largest.first;
+      maxima[2 * c + 1] = largest.second;
+    });
+    m_.pairDrift_ = driftOfChunks(m_.chunkMaxima_);
+    if (m_.listStale()) m_.rebuild();
+    m_.computeForces();
+  }
+  void finish(FireResult& res) { m_.finishCall(res); }
+
+ private:
+  FireMinimiser& m_;
+  bool stopOnInterrupt_;
+  std::vector<fire::FireSums> chunkSums_;  // once per call, not per step
+};
+
+FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrupt) {
+  const FireSettings& fs = settings_.fire;
+  fs.validate();
+  rebuildsInCall_ = 0;
+  broadBuildsInCall_ = 0;
+  callStart_ = Clock::now();
+  broadAtStart_ = broadSeconds_;
+  forceAtStart_ = forceSeconds_;
+  if (settings_.method == MinimiserMethod::Fire) {
+    Serial system(*this, stopOnInterrupt);
+    return fire::descend(system, fs, progress, stopOnInterrupt);
+  }
+  // Conjugate gradients (serial only).
+  FireResult res;
+  double measureSeconds = 0.0;
+  auto timedMeasure = [&] {
+    const auto t0 = Clock::now();
+    MinimiserReport r = measure();
+    measureSeconds += seconds(t0, Clock::now());
+    return r;
+  };
+  const MinimiserReport start = timedMeasure();
+  prepareDescent(start);
   const Index n = particles_.count();
-  double* x = particles_.position().data();
-  double* v = particles_.velocity().data();
   const double* f = particles_.force().data();
   const double* im = particles_.inverseMass().data();
-  particles_.velocity().setZero();
-
-  const double dtMax = fs.dt * fs.dtMaxFactor;
-  const double dtMin = fs.dt * fs.dtMinFactor;
-  double dt = fs.dt;
-  double alpha = fs.alphaStart;
-  std::int64_t downhill = 0, uphill = 0;
-  double knownScale = std::max(start.meanContactForce, fs.referenceForce);
-  constexpr std::int64_t kMeasureEvery = 256;
-  // The stall window of the round-off floor: 4 x the evaluations the residual's last halving took, within
-  // [kStallMin, kStallMax] (the window follows the descent's own pace: 16384 whatever the pace wasted 10-20% of
-  // a near-jamming minimisation at N = 10^4 after the floor was reached).
-  constexpr std::int64_t kStallMin = 2048, kStallMax = 16384;
-  double bestResidual = std::numeric_limits<double>::infinity();
-  std::int64_t bestAt = 0, halvingGap = kStallMax;
-  const double overlapFloor = 64.0 * std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff();
-
+  double dt = 0.0;
+  fire::StopRule rule(fs, start, 64.0 * std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff());
   auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
     res.converged = converged;
     res.stopReason = reason;
     res.iterations = it;
-    res.rebuilds = rebuildsInCall_;
-    res.broadPhaseBuilds = broadBuildsInCall_;
     res.last = report ? *report : timedMeasure();
     res.last.iteration = it;
     res.last.dt = dt;
-    particles_.velocity().setZero();
-    res.seconds.broadPhase = broadSeconds_ - broadAtStart;
-    res.seconds.force = forceSeconds_ - forceAtStart;
     res.seconds.measure = measureSeconds;
-    res.seconds.update =
-        std::max(0.0, seconds(callStart, Clock::now()) - res.seconds.broadPhase - res.seconds.force - measureSeconds);
+    finishCall(res);
     return res;
-  };
-
-  // The stopping rule after a measurement at force evaluation `it` (both methods; all are converged stops):
-  // the reason to stop, or nullptr.
-  auto verdict = [&](const MinimiserReport& now, double fmax, std::int64_t it) -> const char* {
-    if (now.contacts + now.wallContacts == 0) return "no contacts";
-    if (now.maxOverlap <= overlapFloor) return "overlaps at round-off";
-    knownScale = std::max(now.meanContactForce, fs.referenceForce);
-    if (fmax <= fs.forceTolerance * knownScale) return "converged";
-    // The round-off floor: the remaining forces ask every particle to move by less than the resolution of
-    // its coordinates, and the residual has not halved for the stall window. A tolerance below that floor cannot
-    // be met (seen: 10^4 equal spheres at p/k 1e-6, residual hovering at 3-5e-9 against 1e-9 for 1.3 million
-    // steps); stop and say so rather than spend the iteration budget.
-    if (now.residual < 0.5 * bestResidual) {
-      if (std::isfinite(bestResidual)) halvingGap = it - bestAt;
-      bestResidual = now.residual;
-      bestAt = it;
-    }
-    const std::int64_t window = std::clamp(4 * halvingGap, kStallMin, kStallMax);
-    if (now.stepUlps <= 1.0 && it - bestAt >= window) return "round-off floor";
-    return nullptr;
   };
   auto report = [&](std::int64_t it, double step) {
     MinimiserReport now = timedMeasure();
     now.iteration = it;
     now.dt = step;
-    knownScale = std::max(now.meanContactForce, fs.referenceForce);
+    rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
     progress(now);
   };
   const int threads = settings_.threads;
   const Index chunks = fireChunks(n);
-  if (settings_.method == MinimiserMethod::ConjugateGradient) {
+  {
     // Preconditioned Polak-Ribiere+ conjugate gradients (the header): s = M^-1 F, d = s + beta d, and a line
     // search of one trial move and one secant move. `dt` holds the line step, in units of M^-1 F. The passes
     // over the particles run by chunks (forChunks, sums added in chunk order: the same for any thread count),
@@ -668,9 +591,9 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       }
       const double fmax = std::sqrt(fmaxSq);
       // Every 128 iterations = 256 force evaluations, as FIRE measures.
-      if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || iteration % (kMeasureEvery / 2) == 0) {
+      if (fmax <= fs.forceTolerance * rule.knownScale || fmaxSq == 0.0 || iteration % (fire::kMeasureEvery / 2) == 0) {
         const MinimiserReport now = timedMeasure();
-        if (const char* why = verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
+        if (const char* why = rule.verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
       }
       if (evaluations >= fs.maxIterations) return finish(false, "iteration budget", evaluations, nullptr);
       if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", evaluations, nullptr);
@@ -704,91 +627,25 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
       direct(beta, true);
     }
   }
+}
 
-  // FIRE's passes by chunks (forChunks): per-chunk sums and displacement maxima, combined in chunk order.
-  std::vector<FireSums> sumsOfChunk(static_cast<std::size_t>(chunks));  // once per call, not per step
-  FireSums* chunkSums = sumsOfChunk.data();
-  double* maxima = chunkMaxima_.data();
-  for (std::int64_t it = 0;; ++it) {
-    forChunks(n, threads, [=](Index c, Index begin, Index end) { chunkSums[c] = reduceForFire(begin, end, f, v, im); });
-    FireSums sums;
-    for (Index c = 0; c < chunks; ++c) sums.add(chunkSums[c]);
-    auto [power, vv, ff, fvm, ffm, fmaxSq] = sums;
-    if (!std::isfinite(ff) || !std::isfinite(vv)) {
-      throw SimulationError(fmt::format("minimiser: non-finite forces or velocities at FIRE step {}", it));
-    }
-    const double fmax = std::sqrt(fmaxSq);
-    if (fmax <= fs.forceTolerance * knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
-      const MinimiserReport now = timedMeasure();
-      if (const char* why = verdict(now, fmax, it)) return finish(true, why, it, &now);
-    }
-    if (it >= fs.maxIterations) return finish(false, "iteration budget", it, nullptr);
-    if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", it, nullptr);
-    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) report(it, dt);
-
-    if (power > 0.0) {
-      ++downhill;
-      uphill = 0;
-      if (downhill > fs.nDelay) {
-        dt = std::min(dt * fs.fInc, dtMax);
-        alpha *= fs.fAlpha;
-      }
-    } else {
-      downhill = 0;
-      ++uphill;
-      ++res.uphillSteps;
-      if (uphill > fs.maxUphill) return finish(false, "uphill", it, nullptr);
-      if (!(fs.initialDelay && it < fs.nDelay)) {
-        if (dt * fs.fDec >= dtMin) dt *= fs.fDec;
-        alpha = fs.alphaStart;
-      }
-      // FIRE 2.0: correct the overshoot by half a step back, then restart from rest.
-      for (Index a = 0; a < 3 * n; ++a) {
-        x[a] -= 0.5 * dt * v[a];
-        v[a] = 0.0;
-      }
-      vv = 0.0;
-      fvm = 0.0;
-    }
-
-    // Semi-implicit Euler with the FIRE mixing between kick and drift: v += dt F/m; v = (1 - alpha) v +
-    // alpha |v| F/|F|; x += dt v. |v| after the kick from the sums above (no second pass).
-    const double kicked = std::sqrt(std::max(0.0, vv + 2.0 * dt * fvm + dt * dt * ffm));
-    const double fNorm = std::sqrt(ff);
-    const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
-    const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
-    const double* ref = verlet_.reference().data();
-    forChunks(n, threads, [=](Index c, Index begin, Index end) {
-      LargestTwo largest;  // squared displacements since the build
-      for (Index i = begin; i < end; ++i) {
-        // Registers first, stores last: the arrays may alias as far as the compiler knows (see halfKick).
-        const double h = dt * im[i];
-        double fa[3], va[3], xa[3];
-        for (int k = 0; k < 3; ++k) {
-          fa[k] = f[3 * i + k];
-          va[k] = v[3 * i + k];
-          xa[k] = x[3 * i + k];
-        }
-        double dsq = 0.0;
-        for (int k = 0; k < 3; ++k) {
-          va[k] = keep * (va[k] + h * fa[k]) + toward * fa[k];
-          xa[k] += dt * va[k];
-          const double dx = xa[k] - ref[3 * i + k];
-          dsq += dx * dx;
-        }
-        for (int k = 0; k < 3; ++k) {
-          v[3 * i + k] = va[k];
-          x[3 * i + k] = xa[k];
-        }
-        largest.add(dsq);
-      }
-      maxima[2 * c] = largest.first;
-      maxima[2 * c + 1] = largest.second;
-    });
-    pairDrift_ = driftOfChunks(chunkMaxima_);
-    if (listStale()) rebuild();
-    computeForces();
+void FireMinimiser::adoptState(const Eigen::Matrix3Xd& x, const Eigen::VectorXd& r) {
+  if (x.cols() != particles_.count() || r.size() != particles_.count()) {
+    throw std::logic_error("FireMinimiser::adoptState: sizes differ from the minimiser's");
   }
+  particles_.position() = x;
+  particles_.radius() = r;
+  particles_.velocity().setZero();
+  broadPhaseBuild();
+  growthSinceBuild_ = 0.0;
+  pairDrift_ = 0.0;
+  updateMasses();
+  computeForces();
+}
+
+FireMinimiser::ListState FireMinimiser::listState() const {
+  return {growthSinceBuild_, growthSinceOuter_, hertzReferenceOverlap_,
+          verlet_.outerReference() != particles_.position()};
 }
 
 std::size_t FireMinimiser::memoryBytes() const {

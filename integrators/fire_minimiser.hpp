@@ -56,6 +56,7 @@
 // a hard-sphere start at p/k 1e-6: 1.46x fewer force evaluations than FIRE at N = 2000, 1.58x at N = 10^4, the
 // same phi_J to 2e-9, and the same cost per evaluation (docs/jamming_dem.md).
 #include <Eigen/Core>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -152,6 +153,17 @@ struct FireResult {
   MinimiserReport last;
 };
 
+namespace fire {
+/// Stiffness of pair (i, j) at the reference overlap (N/m) for the Jacobi masses: (factor R_eff) scale for
+/// the radius-scaled linear law (scale 1) and Hertz (scale sqrt of the reference overlap), factor for the
+/// constant linear law. A value built once per mass update, so the loop over the candidates inlines it.
+struct StiffnessRule {
+  double factor, scale;
+  bool byRadius;
+  double operator()(double ri, double rj) const { return byRadius ? factor * (ri * rj / (ri + rj)) * scale : factor; }
+};
+}  // namespace fire
+
 class FireMinimiser {
  public:
   using Progress = std::function<void(const MinimiserReport&)>;
@@ -194,6 +206,18 @@ class FireMinimiser {
   std::int64_t forceEvaluations() const { return forceEvaluations_; }
   std::size_t memoryBytes() const;
 
+  /// What a continuation on MPI ranks needs besides the particles (parallel/distributed_fire.hpp).
+  struct ListState {
+    double growthSinceBuild = 0.0, growthSinceOuter = 0.0;  ///< radius growth since the list's builds (m)
+    double hertzReferenceOverlap = 0.0;                     ///< the masses' reference overlap (Hertz)
+    bool moved = false;  ///< some centre moved since the last build through the broad phase
+  };
+  ListState listState() const;
+  /// Take the centres `x` and radii `r` (slot order) of a run that continued this one elsewhere (on MPI
+  /// ranks): velocities zero, a build through the broad phase, forces. The centres are wrapped as a build wraps
+  /// them, so wrappedPositions() and measure() describe the state that run reached.
+  void adoptState(const Eigen::Matrix3Xd& x, const Eigen::VectorXd& r);
+
  private:
   contact::ForceContext context() const;
   /// A new Verlet list: refined from the outer candidates when they still hold every pair within the skin,
@@ -209,15 +233,13 @@ class FireMinimiser {
   /// x += a d, then the list check and the forces (a conjugate-gradient move).
   void moveAlong(const double* d, double a);
   void updateMasses();
-  /// Stiffness of pair (i, j) at the reference overlap (N/m) for the masses: (factor R_eff) scale for the
-  /// radius-scaled linear law (scale 1) and Hertz (scale sqrt of the reference overlap), factor for the
-  /// constant linear law. A value built once per mass update, so the loop over the candidates inlines it.
-  struct StiffnessRule {
-    double factor, scale;
-    bool byRadius;
-    double operator()(double ri, double rj) const { return byRadius ? factor * (ri * rj / (ri + rj)) * scale : factor; }
-  };
-  StiffnessRule stiffnessRule() const;
+  fire::StiffnessRule stiffnessRule() const;
+  /// fire::descend()'s system (fire_minimiser.cpp).
+  class Serial;
+  /// The start of a descent: Hertz masses at the current overlaps, velocities zero.
+  void prepareDescent(const MinimiserReport& start);
+  /// The end of a minimise() call: velocities zero, the call's counters and seconds into `res`.
+  void finishCall(FireResult& res);
 
   ParticleStore particles_;
   Box box_;
@@ -238,7 +260,10 @@ class FireMinimiser {
   std::int64_t broadBuildsInCall_ = 0;
   double growthSinceOuter_ = 0.0;  ///< largest radius growth since the last broad-phase build
   double pairDrift_ = 0.0;         ///< the two largest displacements since the build, summed (listStale())
-  double broadSeconds_ = 0.0, forceSeconds_ = 0.0;  // running totals over the object's life
+  double broadSeconds_ = 0.0, forceSeconds_ = 0.0;   // running totals over the object's life
+  std::chrono::steady_clock::time_point callStart_;  // of the current minimise() call
+  double broadAtStart_ = 0.0, forceAtStart_ = 0.0;
+  mutable std::vector<double> measurePart_;  ///< measure()'s per-particle sums (3 per particle)
   HugePageAdvice hugePages_;  ///< the particle arrays and the list (core/huge_pages.hpp), after every rebuild
 };
 

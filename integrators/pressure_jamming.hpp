@@ -15,6 +15,10 @@
 // about target / (dp/dphi), 1e-7 at the default target). Contacts, rattlers and the backbone's contact
 // number are from jamming::analyseContacts on the overlapping pairs (gap <= 0): rattlers are spheres with
 // fewer than d + 1 = 4 contacts among non-rattlers, removed recursively (jamming/contact_network.hpp).
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -64,8 +68,11 @@ using JammingStepCallback = std::function<void(const JammingStep&)>;
 
 /// Run the protocol on `minimiser` from its current state. The progress callback of each minimisation is
 /// `fireProgress`; `onStep` is called after each. With `stopOnInterrupt`, polls polydem::interruptRequested().
-/// A minimisation that does not converge ends the protocol (stopReason "not converged: ...").
-PressureJammingResult jamToPressure(FireMinimiser& minimiser, const PressureJammingSettings& settings,
+/// A minimisation that does not converge ends the protocol (stopReason "not converged: ..."). `Minimiser`:
+/// FireMinimiser, or parallel::DistributedFire (the same protocol on MPI ranks): minimise(), packingFraction(),
+/// scaleRadii() and settings().
+template <class Minimiser>
+PressureJammingResult jamToPressure(Minimiser& minimiser, const PressureJammingSettings& settings,
                                     const JammingStepCallback& onStep = {},
                                     const FireMinimiser::Progress& fireProgress = {}, bool stopOnInterrupt = false);
 
@@ -80,5 +87,95 @@ struct SizeClassRattlers {
 };
 std::vector<SizeClassRattlers> rattlersBySize(const Eigen::VectorXd& radius, const std::vector<char>& rattler,
                                               int classes);
+
+template <class Minimiser>
+PressureJammingResult jamToPressure(Minimiser& minimiser, const PressureJammingSettings& settings,
+                                    const JammingStepCallback& onStep, const FireMinimiser::Progress& fireProgress,
+                                    bool stopOnInterrupt) {
+  settings.validate();
+  PressureJammingResult result;
+  const double target = settings.targetPressure;
+  // p ~ (phi - phi_J)^e near jamming: the false position works on p^(1/e), which is linear there.
+  const bool hertz = minimiser.settings().contact.normal == contact::NormalModel::Hertz;
+  auto linearised = [&](double p) { return hertz ? std::pow(p, 2.0 / 3.0) : p; };
+  double lo = 0.0, hi = 0.0;
+  double step = settings.initialStep;
+  std::string action = "start";
+  int lastDirection = 0;
+  bool reversed = false;
+  double lastPhi = 0.0, lastPressure = 0.0;
+
+  for (int s = 0;; ++s) {
+    const FireResult fire = minimiser.minimise(fireProgress, stopOnInterrupt);
+    ++result.steps;
+    result.fireIterations += fire.iterations;
+    result.lastFire = fire;
+    const double phi = minimiser.packingFraction();
+    const double p = fire.last.reducedPressure;
+    result.packingFraction = phi;
+    result.reducedPressure = p;
+    if (onStep) onStep(JammingStep{s, phi, p, action, fire});
+
+    if (fire.stopReason == "interrupted") {
+      result.stopReason = "interrupted";
+      break;
+    }
+    if (!fire.converged) {
+      result.stopReason = fmt::format("not converged: residual {:.3g} after {} iterations ({})", fire.last.residual,
+                                      fire.iterations, fire.stopReason);
+      break;
+    }
+    if (std::abs(p - target) <= settings.pressureTolerance * target) {
+      result.reached = true;
+      result.stopReason = "target reached";
+      break;
+    }
+    const int direction = p < target ? 1 : -1;  // compress below the target, decompress above
+    if (direction > 0) {
+      lo = phi;
+    } else {
+      hi = phi;
+    }
+    if (result.steps >= settings.maxSteps) {
+      result.stopReason = fmt::format("step budget: {} minimisations", settings.maxSteps);
+      break;
+    }
+    // O'Hern et al.'s bisection, local: the step halves at each reversal of direction (and doubles, up to
+    // maxStep, until the first one). Each state grows from the previous one, so the protocol follows the
+    // configuration it has (a state left far above may unjam on decompression and jam again elsewhere, which
+    // makes a global bracket stale).
+    if (lastDirection != 0 && direction != lastDirection) {
+      reversed = true;
+      step *= 0.5;
+    } else if (!reversed && lastDirection != 0) {
+      step = std::min(2.0 * step, settings.maxStep);
+    }
+    if (step < settings.minBracket) {
+      result.stopReason = fmt::format(
+          "step below round-off: phi {:.15g} at p/k {:.4g}, relative step {:.3g}, target {:.4g}", phi, p, step, target);
+      break;
+    }
+    double next = phi * (1.0 + direction * step);
+    // Two jammed states in a row: the secant on p^(1/e), linear in phi near jamming, within the step.
+    if (lastPressure > 1e-3 * target && p > 1e-3 * target && lastPressure != p) {
+      const double secant =
+          phi + (linearised(target) - linearised(p)) * (phi - lastPhi) / (linearised(p) - linearised(lastPressure));
+      if (std::abs(secant - phi) <= step * phi) next = secant;
+    } else if (settings.jammingEstimate > 0.0 && p > 1e-3 * target && phi > settings.jammingEstimate) {
+      // One jammed state and the start's phi_J estimate: the secant through (estimate, 0) and this state.
+      const double secant =
+          settings.jammingEstimate + (phi - settings.jammingEstimate) * linearised(target) / linearised(p);
+      if (std::abs(secant - phi) <= step * phi) next = secant;
+    }
+    action = next > phi ? "compress" : "decompress";
+    lastDirection = direction;
+    lastPhi = phi;
+    lastPressure = p;
+    minimiser.scaleRadii(std::cbrt(next / phi));
+  }
+  result.lowPhi = lo;
+  result.highPhi = hi;
+  return result;
+}
 
 }  // namespace polydem::integrators

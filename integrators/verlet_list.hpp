@@ -66,6 +66,8 @@ class VerletList {
   const contact::ContactList& list() const { return list_; }
   /// Centres at the last build (3 x N).
   const Eigen::Matrix3Xd& reference() const { return reference_; }
+  /// Centres at the last build() through the backend (the outer candidates' build; reference() for one level).
+  const Eigen::Matrix3Xd& outerReference() const { return twoLevel() ? outerReference_ : reference_; }
   /// Radii at the last build (N): with reference(), all a resumed run needs to rebuild the same list.
   const Eigen::VectorXd& referenceRadius() const { return referenceRadius_; }
   /// Set the build counter (a resumed run continues the count of the run that saved it).

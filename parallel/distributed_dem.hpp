@@ -107,6 +107,8 @@ class DistributedDem {
   const Decomposition& decomposition() const { return grid_; }
 
  private:
+  // The minimiser on ranks uses the particles, ghosts, migration and candidate list of a DistributedDem.
+  friend class DistributedFire;
   void selectKernel();
   void buildList(const Eigen::Matrix3Xd& centres, const Eigen::VectorXd& radii);
   void remapHistories(std::vector<double>& pool, std::vector<double>& wallPool);

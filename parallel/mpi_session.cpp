@@ -68,11 +68,12 @@ int size() { return worldSize; }
 int rank() { return worldRank; }
 
 void requireParallelSupport(const std::string& subcommand) {
-  if (worldSize > 1 && subcommand != "relax") {
-    throw ConfigError(fmt::format(
-        "polydem {} runs on one process; under an MPI launcher with {} ranks only `polydem relax` is supported "
-        "(docs/parallel.md): run it without mpirun or with -np 1",
-        subcommand, worldSize));
+  if (worldSize > 1 && subcommand != "relax" && subcommand != "minimise") {
+    throw ConfigError(
+        fmt::format("polydem {} runs on one process; under an MPI launcher with {} ranks only `polydem relax` and "
+                    "`polydem minimise` are supported "
+                    "(docs/parallel.md): run it without mpirun or with -np 1",
+                    subcommand, worldSize));
   }
 }
 

@@ -35,7 +35,7 @@ int size();
 /// 0 without MPI.
 int rank();
 inline bool isRoot() { return rank() == 0; }
-/// More than one rank: the subcommand must support it (only relax does). Throws ConfigError otherwise.
+/// More than one rank: the subcommand must support it (relax and minimise do). Throws ConfigError otherwise.
 void requireParallelSupport(const std::string& subcommand);
 
 /// A failure of this rank alone (the others cannot know it): print `message` on the original stderr with

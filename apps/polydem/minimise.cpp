@@ -16,6 +16,7 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/exit_codes.hpp"
+#include "apps/polydem/minimise_mpi.hpp"
 #include "apps/polydem/minimise_scene.hpp"
 #include "apps/polydem/validators.hpp"
 #include "broadphase/registry.hpp"
@@ -416,6 +417,11 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     io::checkOutputPath(o.output, "--output", inputs);
     if (o.contacts) io::checkOutputPath(io::contactPathFor(o.output), "--contacts (the contact file)", inputs);
   }
+  const bool ranks = minimiseOnSeveralRanks();  // docs/parallel.md
+  if (ranks && o.method == "cg") {
+    throw ConfigError(
+        "--method cg runs on one process (MPI ranks run FIRE): run it without mpirun, or use --method fire");
+  }
   Start start = makeStart(o, cmd);
   // The input's hard-sphere phi_J estimate, read (and checked) before any work.
   const double jammingEstimate = protocol ? jammingEstimateOf(o, start) : 0.0;
@@ -438,8 +444,10 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
       throw ConfigError(
           fmt::format("--delta-phi {:g}: phi {:.6f} + {:g} is outside (0, 1)", o.deltaPhi, phi, o.deltaPhi));
     }
-    m.scaleRadii(std::cbrt((phi + o.deltaPhi) / phi));
-    fmt::print("delta phi               {:g}: phi {:.10f} -> {:.10f}\n", o.deltaPhi, phi, m.packingFraction());
+    if (!ranks) {  // on ranks, minimiseOnRanks() scales on the distributed state
+      m.scaleRadii(std::cbrt((phi + o.deltaPhi) / phi));
+      fmt::print("delta phi               {:g}: phi {:.10f} -> {:.10f}\n", o.deltaPhi, phi, m.packingFraction());
+    }
   }
   Stopwatch clock;
   double lastPrint = 0.0;
@@ -461,6 +469,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
   };
 
   Outcome out;
+  std::int64_t evaluations = 0;  // on ranks: the distributed run's count (m's own is then not the run's)
   if (protocol) {
     integrators::PressureJammingSettings js;
     js.targetPressure = o.targetPressure;
@@ -480,7 +489,8 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
                  s.step, s.action, s.packingFraction, s.reducedPressure, name, s.fire.iterations, s.fire.stopReason,
                  s.fire.last.residual, s.fire.last.contacts + s.fire.last.wallContacts, clock.seconds());
     };
-    const integrators::PressureJammingResult r = integrators::jamToPressure(m, js, onStep, fireProgress, true);
+    const integrators::PressureJammingResult r = ranks ? jamOnRanks(m, js, onStep, fireProgress, evaluations)
+                                                       : integrators::jamToPressure(m, js, onStep, fireProgress, true);
     out.ok = r.reached;
     out.interrupted = r.stopReason == "interrupted";
     out.stopReason = r.stopReason;
@@ -489,7 +499,8 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     out.fireStop = r.lastFire.stopReason;
     fmt::print("minimisations           {} ({} {} {})\n", r.steps, r.fireIterations, name, unit);
   } else {
-    const integrators::FireResult r = m.minimise(fireProgress, true);
+    const integrators::FireResult r =
+        ranks ? minimiseOnRanks(m, o.deltaPhi, fireProgress, evaluations) : m.minimise(fireProgress, true);
     out.ok = r.converged;
     out.interrupted = r.stopReason == "interrupted";
     out.stopReason = r.converged ? r.stopReason
@@ -517,8 +528,9 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
         "ulp of the coordinates, and the residual stopped falling)\n",
         name, out.last.residual, o.forceTolerance, out.last.stepUlps);
   }
-  fmt::print("time                    {:.2f} s, {} force evaluations, memory {:.1f} MB\n", clock.seconds(),
-             m.forceEvaluations(), static_cast<double>(m.memoryBytes()) / 1e6);
+  fmt::print("time                    {:.2f} s, {} force evaluations, memory {:.1f} MB{}\n", clock.seconds(),
+             ranks ? evaluations : m.forceEvaluations(), static_cast<double>(m.memoryBytes()) / 1e6,
+             ranks ? " (rank 0's serial copy)" : "");
 
   const jamming::ContactNetwork net = integrators::softContactNetwork(m, "hgrid-td");
   if (!out.ok)
@@ -544,7 +556,7 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
   if (protocol && out.ok)
     fmt::print("phi_J                   {:.10f} (at p/k {:.4g})\n", out.last.packingFraction, out.last.reducedPressure);
   fmt::print("result                  {}\n", out.stopReason);
-  if (!o.output.empty()) writeOutput(o, start, m, out, net);
+  if (!o.output.empty() && minimiseRoot()) writeOutput(o, start, m, out, net);
   if (out.interrupted) return kExitInterrupted;
   return out.ok ? kExitOk : kExitTargetNotReached;
 }

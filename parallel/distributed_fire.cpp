@@ -1,0 +1,425 @@
+// DistributedFire: the serial FIRE minimiser on MPI ranks. The argument for bit-identity is in
+// distributed_fire.hpp; every expression that decides a value is the serial code's own (fire_descent.hpp,
+// the broad phase's pair predicate, the compiled force kernel).
+#include "parallel/distributed_fire.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "broadphase/auto_select.hpp"
+#include "broadphase/broad_phase.hpp"
+#include "core/errors.hpp"
+#include "core/interrupt.hpp"
+#include "parallel/mpi_util.hpp"
+
+namespace polydem::parallel {
+
+namespace {
+
+using integrators::fire::kChunk;
+
+integrators::DemState stateOf(const integrators::FireMinimiser& m) {
+  const integrators::FireMinimiser::ListState ls = m.listState();
+  if (ls.moved || ls.growthSinceBuild != 0.0 || ls.growthSinceOuter != 0.0 ||
+      m.neighbours().referenceRadius() != m.particles().radius()) {
+    throw std::logic_error("DistributedFire: the minimiser's particles changed since its construction");
+  }
+  if (m.settings().method != integrators::MinimiserMethod::Fire) {
+    throw ConfigError(
+        fmt::format("--method {} runs on one process (MPI ranks run FIRE); run it without mpirun or use --method fire",
+                    integrators::methodName(m.settings().method)));
+  }
+  const ParticleStore& p = m.particles();
+  integrators::DemState g;
+  g.box = m.box();
+  g.skin = m.settings().outerSkin;  // the ghosts and the candidates reach the outer skin
+  g.id = p.id();
+  g.position = p.position();
+  g.velocity = Eigen::Matrix3Xd::Zero(3, p.count());
+  g.force = p.force();
+  g.radius = p.radius();
+  g.inverseMass = p.inverseMass();
+  g.referencePosition = p.position();
+  g.referenceRadius = p.radius();
+  return g;
+}
+
+integrators::DemSettings settingsOf(const integrators::FireMinimiser& m) {
+  integrators::DemSettings s;
+  s.contact = m.settings().contact;
+  s.broadPhase = m.settings().broadPhase;
+  s.skin = m.settings().outerSkin;
+  s.threads = m.settings().threads;
+  s.spatialSort = false;  // the minimiser sorted once at its construction; the slots are the keys
+  s.resort.interval = 0;
+  return s;
+}
+
+double wallGap(const Box& box, int face, double x, double r) {  // as integrators/verlet_list.cpp
+  return (face % 2 == 0 ? x : box.length(face / 2) - x) - r;
+}
+
+}  // namespace
+
+DistributedFire::DistributedFire(const integrators::FireMinimiser& m, DecompositionKind kind)
+    : settings_(m.settings()), dem_(stateOf(m), settingsOf(m), kind) {
+  if (dem_.kernel_.name != m.kernel().name) {
+    throw std::logic_error(
+        fmt::format("DistributedFire: kernel {} differs from the minimiser's {}", dem_.kernel_.name, m.kernel().name));
+  }
+  const integrators::FireMinimiser::ListState ls = m.listState();
+  total_ = m.particles().count();
+  skin_ = m.neighbours().skin();
+  outerSkin_ = settings_.outerSkin;
+  pressureUnit_ = m.pressureUnit();
+  hertzReferenceOverlap_ = ls.hertzReferenceOverlap;
+  chunks_.setup(dem_.key_, dem_.ownedSlots_, total_, kChunk);
+  cut();
+  updateMasses();
+  computeForces();
+  forceEvaluations_ = m.forceEvaluations();  // the same forces as the minimiser's last evaluation
+}
+
+// ---- the list, the masses, the forces -------------------------------------------------------------------
+
+void DistributedFire::cut() {
+  // VerletList::cutFromOuter() on the local rows: the rows keep the candidates' order.
+  const contact::ContactList& outer = dem_.list_;
+  const Index n = dem_.n_;
+  const SphereView spheres{dem_.x_, dem_.r_};
+  const Box& box = dem_.box_;
+  inner_.offset.resize(static_cast<std::size_t>(n) + 1);
+  inner_.neighbour.resize(outer.neighbour.size());
+  Index k = 0;
+  inner_.offset[0] = 0;
+  for (Index i = 0; i < n; ++i) {
+    for (Index c = outer.offset[i]; c < outer.offset[i + 1]; ++c) {
+      const Index j = outer.neighbour[c];
+      inner_.neighbour[static_cast<std::size_t>(k)] = j;
+      k += static_cast<Index>(broadphase::withinReach(spheres, box, i, j, skin_));
+    }
+    inner_.offset[static_cast<std::size_t>(i) + 1] = k;
+  }
+  inner_.neighbour.resize(static_cast<std::size_t>(k));
+  inner_.wallParticle.clear();
+  inner_.wallFace.clear();
+  for (std::size_t c = 0; c < outer.wallParticle.size(); ++c) {
+    const Index i = outer.wallParticle[c];
+    const int face = outer.wallFace[c];
+    if (wallGap(box, face, dem_.x_(face / 2, i), dem_.r_[i]) <= skin_) {
+      inner_.wallParticle.push_back(i);
+      inner_.wallFace.push_back(static_cast<std::int8_t>(face));
+    }
+  }
+  if (settings_.threads > 1) {
+    inner_.buildBlocks(settings_.threads);
+    crossScratch_.resize(contact::crossScratchSize(inner_.crossCount(), false));
+    crossTouching_.resize(inner_.crossCount());
+  }
+  innerReference_ = dem_.x_;
+  growthSinceBuild_ = 0.0;
+  pairDrift_ = 0.0;
+}
+
+integrators::fire::StiffnessRule DistributedFire::stiffnessRule() const {
+  // FireMinimiser::stiffnessRule().
+  const contact::ContactParameters& p = dem_.model_.parameters();
+  if (p.normal == contact::NormalModel::Hertz) return {1.5 * p.stiffness, std::sqrt(hertzReferenceOverlap_), true};
+  const contact::LinearNormal::Params linear = dem_.model_.linearParams();
+  return {linear.stiffness, 1.0, linear.radiusScaled};
+}
+
+void DistributedFire::updateMasses() {
+  integrators::fire::jacobiMasses(inner_, dem_.r_.data(), dem_.n_, stiffnessRule(), dem_.invm_.data());
+}
+
+contact::ForceContext DistributedFire::context() {
+  contact::ForceContext c = dem_.context();
+  c.list = &inner_;
+  c.crossScratch = crossScratch_.data();
+  c.crossTouching = crossTouching_.data();
+  return c;
+}
+
+void DistributedFire::computeForces() {
+  const double t0 = MPI_Wtime();
+  if (dem_.n_ > 0) dem_.kernel_.run(dem_.model_, context());
+  ++forceEvaluations_;
+  forceSeconds_ += MPI_Wtime() - t0;
+}
+
+double DistributedFire::drift(const Eigen::Matrix3Xd& reference) {
+  integrators::fire::LargestTwo largest;
+  double finite = 1.0;
+  for (const Index i : dem_.ownedSlots_) {
+    const double dsq = (dem_.x_.col(i) - reference.col(i)).squaredNorm();
+    if (!std::isfinite(dsq)) finite = 0.0;
+    largest.add(dsq);
+  }
+  std::vector<double> all(3 * static_cast<std::size_t>(dem_.size_));
+  const double mine[3] = {largest.first, largest.second, finite};
+  {
+    CommTimer timer(dem_.stats_.commSeconds);
+    mpiCheck(MPI_Allgather(mine, 3, MPI_DOUBLE, all.data(), 3, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+  }
+  integrators::fire::LargestTwo global;
+  for (std::size_t q = 0; q < all.size(); q += 3) {
+    if (all[q + 2] == 0.0) return std::numeric_limits<double>::infinity();
+    global.add(all[q]);
+    global.add(all[q + 1]);
+  }
+  return global.drift();
+}
+
+void DistributedFire::rebuild() {
+  const double t0 = MPI_Wtime();
+  // FireMinimiser::rebuild(): outerDrift() over every particle (VerletList::outerDrift: +inf if a centre is
+  // not finite), against the room the outer candidates leave.
+  if (outerSkin_ > skin_ && drift(dem_.ref_) + 2.0 * growthSinceOuter_ <= outerSkin_ - skin_) {
+    dem_.exchangeGhosts();  // the cut reads the ghosts' centres
+    cut();
+  } else {
+    dem_.rebuild();  // wraps the centres (as broadPhaseBuild()), migrates, sends fresh ghosts, the candidates
+    chunks_.setup(dem_.key_, dem_.ownedSlots_, total_, kChunk);
+    growthSinceOuter_ = 0.0;
+    ++broadBuildsInCall_;
+    cut();
+  }
+  updateMasses();
+  ++rebuildsInCall_;
+  broadSeconds_ += MPI_Wtime() - t0;
+}
+
+// ---- fire::descend()'s system ------------------------------------------------------------------------------
+
+void DistributedFire::prepare(const integrators::MinimiserReport& start) {
+  if (dem_.model_.parameters().normal == contact::NormalModel::Hertz) {
+    const double ratio = start.maxOverlapRatio > 0.0 ? start.maxOverlapRatio : 1e-4;
+    if (ratio != hertzReferenceOverlap_) {
+      hertzReferenceOverlap_ = ratio;
+      updateMasses();
+    }
+  }
+  dem_.v_.setZero();
+}
+
+integrators::fire::FireSums DistributedFire::sums() {
+  using integrators::fire::FireSums;
+  const double* f = dem_.f_.data();
+  const double* v = dem_.v_.data();
+  const double* im = dem_.invm_.data();
+  const std::vector<double> extra = {stopOnInterrupt_ && interruptRequested() ? 1.0 : 0.0};
+  const std::vector<double>& r = chunks_.reduce(
+      FireSums::kWidth, 7,
+      [&](Index, Index begin, Index end, double* out) {
+        integrators::fire::reduceChunk(begin, end, f, v, im).store(out);
+      },
+      [&](Index i, double* out) {
+        for (int k = 0; k < 3; ++k) out[k] = f[3 * i + k];
+        for (int k = 0; k < 3; ++k) out[3 + k] = v[3 * i + k];
+        out[6] = im[i];
+      },
+      [&](Index, Index count, const double* packed, double* out) {
+        packScratch_.resize(7 * static_cast<std::size_t>(count));
+        double* pf = packScratch_.data();
+        double* pv = pf + 3 * count;
+        double* pm = pv + 3 * count;
+        for (Index i = 0; i < count; ++i) {
+          for (int k = 0; k < 3; ++k) pf[3 * i + k] = packed[7 * i + k];
+          for (int k = 0; k < 3; ++k) pv[3 * i + k] = packed[7 * i + 3 + k];
+          pm[i] = packed[7 * i + 6];
+        }
+        integrators::fire::reduceChunk(0, count, pf, pv, pm).store(out);
+      },
+      extra, &dem_.stats_.commSeconds);
+  FireSums total;
+  for (Index c = 0; c < chunks_.chunks(); ++c) total.add(FireSums::load(r.data() + c * FireSums::kWidth));
+  interrupted_ = r.back() > 0.0;
+  return total;
+}
+
+void DistributedFire::restart(double dt) {
+  for (const Index i : dem_.ownedSlots_) {
+    for (int k = 0; k < 3; ++k) {
+      dem_.x_(k, i) -= 0.5 * dt * dem_.v_(k, i);
+      dem_.v_(k, i) = 0.0;
+    }
+  }
+}
+
+void DistributedFire::advance(double dt, double keep, double toward) {
+  const double t0 = MPI_Wtime();
+  double* x = dem_.x_.data();
+  double* v = dem_.v_.data();
+  const double* f = dem_.f_.data();
+  const double* im = dem_.invm_.data();
+  const double* ref = innerReference_.data();
+  integrators::fire::LargestTwo largest;
+  for (const Index i : dem_.ownedSlots_) {
+    largest.add(integrators::fire::kickMixDrift(i, dt, keep, toward, f, v, x, im, ref));
+  }
+  std::vector<double> all(2 * static_cast<std::size_t>(dem_.size_));
+  const double mine[2] = {largest.first, largest.second};
+  {
+    CommTimer timer(dem_.stats_.commSeconds);
+    mpiCheck(MPI_Allgather(mine, 2, MPI_DOUBLE, all.data(), 2, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+  }
+  integrators::fire::LargestTwo global;
+  for (const double d : all) global.add(d);
+  pairDrift_ = global.drift();
+  dem_.stats_.loopSeconds += MPI_Wtime() - t0;
+  // FireMinimiser::listStale().
+  if (pairDrift_ + 2.0 * growthSinceBuild_ > skin_) {
+    rebuild();
+  } else {
+    dem_.exchangeGhosts();
+  }
+  computeForces();
+}
+
+void DistributedFire::finish(integrators::FireResult& res) {
+  res.rebuilds = rebuildsInCall_;
+  res.broadPhaseBuilds = broadBuildsInCall_;
+  dem_.v_.setZero();
+  res.seconds.broadPhase = broadSeconds_ - broadAtStart_;
+  res.seconds.force = forceSeconds_ - forceAtStart_;
+  res.seconds.update =
+      std::max(0.0, MPI_Wtime() - callStart_ - res.seconds.broadPhase - res.seconds.force - res.seconds.measure);
+}
+
+double DistributedFire::overlapFloor() const {
+  return 64.0 * std::numeric_limits<double>::epsilon() * dem_.box_.lengths().maxCoeff();
+}
+
+// ---- the public operations -----------------------------------------------------------------------------------
+
+integrators::FireResult DistributedFire::minimise(const Progress& progress, bool stopOnInterrupt) {
+  settings_.fire.validate();
+  rebuildsInCall_ = 0;
+  broadBuildsInCall_ = 0;
+  callStart_ = MPI_Wtime();
+  broadAtStart_ = broadSeconds_;
+  forceAtStart_ = forceSeconds_;
+  stopOnInterrupt_ = stopOnInterrupt;
+  return integrators::fire::descend(*this, settings_.fire, progress, stopOnInterrupt);
+}
+
+void DistributedFire::scaleRadii(double factor) {
+  if (!(factor > 0.0 && std::isfinite(factor))) {
+    throw ConfigError(fmt::format("scaleRadii: factor must be > 0, got {}", factor));
+  }
+  if (factor > 1.0) {
+    double rmax = 0.0;
+    for (const Index i : dem_.ownedSlots_) rmax = std::max(rmax, dem_.r_[i]);
+    {
+      CommTimer timer(dem_.stats_.commSeconds);
+      mpiCheck(MPI_Allreduce(MPI_IN_PLACE, &rmax, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+    }
+    growthSinceBuild_ += (factor - 1.0) * rmax;
+    growthSinceOuter_ += (factor - 1.0) * rmax;
+  }
+  if (dynamic_cast<broadphase::AutoSelect*>(dem_.backend_.get()) != nullptr) {
+    // `auto` chose for the system's radii (DistributedDem's constructor): the next build through the broad
+    // phase chooses for the scaled ones, on every rank alike (as DistributedDem::growRadii()).
+    if (dem_.sampleRadii_.size() == 0) dem_.sampleRadii_ = radii();
+    dem_.sampleRadii_ *= factor;
+    dem_.resample_ = true;
+  }
+  dem_.r_ *= factor;  // ghosts too: the same product as their owners'
+  dem_.v_.setZero();
+  if (pairDrift_ + 2.0 * growthSinceBuild_ > skin_) {
+    rebuild();
+  } else {
+    updateMasses();
+  }
+  computeForces();
+}
+
+integrators::MinimiserReport DistributedFire::measure() {
+  using integrators::fire::MeasureSums;
+  const Index n = dem_.n_;
+  part_.assign(3 * static_cast<std::size_t>(n), 0.0);
+  const integrators::fire::ContactTally tally = integrators::fire::tallyContacts(
+      dem_.model_, context(), [&](Index i) { return dem_.owned_[static_cast<std::size_t>(i)] != 0; }, part_.data());
+  const double* part = part_.data();
+  const double* r = dem_.r_.data();
+  auto store = [](const MeasureSums& s, double* out) {
+    out[0] = s.energy;
+    out[1] = s.force;
+    out[2] = s.virial;
+    out[3] = s.volume;
+  };
+  const std::vector<double> extra = {static_cast<double>(tally.contacts), static_cast<double>(tally.wallContacts)};
+  const std::vector<double>& sums = chunks_.reduce(
+      MeasureSums::kWidth, 4,
+      [&](Index, Index begin, Index end, double* out) {
+        store(integrators::fire::measureChunk(begin, end, part, r), out);
+      },
+      [&](Index i, double* out) {
+        for (int k = 0; k < 3; ++k) out[k] = part[3 * i + k];
+        out[3] = r[i];
+      },
+      [&](Index, Index count, const double* packed, double* out) {
+        packScratch_.resize(4 * static_cast<std::size_t>(count));
+        double* pp = packScratch_.data();
+        double* pr = pp + 3 * count;
+        for (Index i = 0; i < count; ++i) {
+          for (int k = 0; k < 3; ++k) pp[3 * i + k] = packed[4 * i + k];
+          pr[i] = packed[4 * i + 3];
+        }
+        store(integrators::fire::measureChunk(0, count, pp, pr), out);
+      },
+      extra, &dem_.stats_.commSeconds);
+  MeasureSums total;
+  for (Index c = 0; c < chunks_.chunks(); ++c) {
+    const double* s = sums.data() + c * MeasureSums::kWidth;
+    total.energy += s[0];
+    total.force += s[1];
+    total.virial += s[2];
+    total.volume += s[3];
+  }
+  integrators::fire::ContactTally all = tally;
+  all.contacts = static_cast<std::size_t>(sums[sums.size() - 2]);
+  all.wallContacts = static_cast<std::size_t>(sums[sums.size() - 1]);
+  double maxima[4] = {tally.maxOverlapRatio, tally.maxOverlap, 0.0, 0.0};  // and max |F|^2, max step^2
+  for (const Index i : dem_.ownedSlots_) {
+    const double fi = integrators::fire::squaredNorm3(dem_.f_.data() + 3 * i);
+    maxima[2] = std::max(maxima[2], fi);
+    maxima[3] = std::max(maxima[3], fi * dem_.invm_[i] * dem_.invm_[i]);
+  }
+  {
+    CommTimer timer(dem_.stats_.commSeconds);
+    mpiCheck(MPI_Allreduce(MPI_IN_PLACE, maxima, 4, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
+  }
+  all.maxOverlapRatio = maxima[0];
+  all.maxOverlap = maxima[1];
+  return integrators::fire::assembleReport(all, total, maxima[2], maxima[3], dem_.box_, pressureUnit_,
+                                           settings_.fire.referenceForce);
+}
+
+double DistributedFire::packingFraction() {
+  const double* r = dem_.r_.data();
+  auto cubes = [](const double* radius, Index begin, Index end) {
+    double s = 0.0;
+    for (Index i = begin; i < end; ++i) s += radius[i] * radius[i] * radius[i];
+    return s;
+  };
+  const std::vector<double>& sums = chunks_.reduce(
+      1, 1, [&](Index, Index begin, Index end, double* out) { *out = cubes(r, begin, end); },
+      [&](Index i, double* out) { *out = r[i]; },
+      [&](Index, Index count, const double* packed, double* out) { *out = cubes(packed, 0, count); }, {},
+      &dem_.stats_.commSeconds);
+  double volume = 0.0;
+  for (Index c = 0; c < chunks_.chunks(); ++c) volume += sums[static_cast<std::size_t>(c)];
+  return 4.0 / 3.0 * kPi * volume / dem_.box_.volume();
+}
+
+Eigen::Matrix3Xd DistributedFire::positions() { return dem_.gatherOwned(dem_.x_); }
+
+Eigen::VectorXd DistributedFire::radii() { return dem_.gatherOwned(dem_.r_.transpose()).row(0).transpose(); }
+
+}  // namespace polydem::parallel
