@@ -212,7 +212,7 @@ integrators::fire::FireSums DistributedFire::sums() {
   const double* f = dem_.f_.data();
   const double* v = dem_.v_.data();
   const double* im = dem_.invm_.data();
-  const std::vector<double> extra = {stopOnInterrupt_ && interruptRequested() ? 1.0 : 0.0};
+  extra_.assign(1, stopOnInterrupt_ && interruptRequested() ? 1.0 : 0.0);  // no allocation after the first step
   const std::vector<double>& r = chunks_.reduce(
       FireSums::kWidth, 7,
       [&](Index, Index begin, Index end, double* out) {
@@ -235,7 +235,7 @@ integrators::fire::FireSums DistributedFire::sums() {
         }
         integrators::fire::reduceChunk(0, count, pf, pv, pm).store(out);
       },
-      extra, &dem_.stats_.commSeconds);
+      extra_, &dem_.stats_.commSeconds);
   FireSums total;
   for (Index c = 0; c < chunks_.chunks(); ++c) total.add(FireSums::load(r.data() + c * FireSums::kWidth));
   interrupted_ = r.back() > 0.0;
@@ -262,14 +262,14 @@ void DistributedFire::advance(double dt, double keep, double toward) {
   for (const Index i : dem_.ownedSlots_) {
     largest.add(integrators::fire::kickMixDrift(i, dt, keep, toward, f, v, x, im, ref));
   }
-  std::vector<double> all(2 * static_cast<std::size_t>(dem_.size_));
+  gathered_.resize(2 * static_cast<std::size_t>(dem_.size_));
   const double mine[2] = {largest.first, largest.second};
   {
     CommTimer timer(dem_.stats_.commSeconds);
-    mpiCheck(MPI_Allgather(mine, 2, MPI_DOUBLE, all.data(), 2, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+    mpiCheck(MPI_Allgather(mine, 2, MPI_DOUBLE, gathered_.data(), 2, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
   }
   integrators::fire::LargestTwo global;
-  for (const double d : all) global.add(d);
+  for (const double d : gathered_) global.add(d);
   pairDrift_ = global.drift();
   dem_.stats_.loopSeconds += MPI_Wtime() - t0;
   // FireMinimiser::listStale().

@@ -87,7 +87,7 @@ class DistributedFire {
   Eigen::Matrix3Xd innerReference_;
   std::vector<double> crossScratch_;
   std::vector<std::uint8_t> crossTouching_;
-  std::vector<double> part_, packScratch_;
+  std::vector<double> part_, packScratch_, extra_, gathered_;
   Index total_ = 0;
   double skin_ = 0.0, outerSkin_ = 0.0, pressureUnit_ = 1.0, hertzReferenceOverlap_ = 1e-4;
   double growthSinceBuild_ = 0.0, growthSinceOuter_ = 0.0, pairDrift_ = 0.0;

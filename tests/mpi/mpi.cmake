@@ -155,6 +155,54 @@ add_test(NAME mpi_refuse_unsupported
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_refuse.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
                  ${POLYDEM_MPI_WORK})
 set_tests_properties(mpi_refuse_unsupported PROPERTIES TIMEOUT 120 LABELS mpi)
+# polydem minimise on ranks (parallel::DistributedFire): the packing file and the report's results are the serial
+# run's byte for byte. Pressure-controlled jamming (11 minimisations, radii scaled between them) of a periodic
+# uniform-volume packing of size ratio 10; one minimisation of a walled bidisperse packing with Hertz contacts
+# after a change of phi (the Hertz masses, wall contacts across ranks).
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_min_jam.toml "[minimise]
+dist = \"uniform-volume\"
+omega = 10.0
+count = 1500
+phi0 = 0.7
+seed = 2
+target_pressure = 1e-3
+progress = 0.0
+")
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_min_walls.toml "[minimise]
+dist = \"bi\"
+omega = 3.0
+count = 900
+phi0 = 0.45
+boundary = \"walls\"
+law = \"hertz\"
+seed = 5
+delta_phi = 0.01
+progress = 0.0
+")
+set(_polydem_mpi_min_quick mpi_min_jam_np2 mpi_min_walls_np3)
+foreach(scene min_jam min_walls)
+  add_test(NAME mpi_${scene}_serial
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_${scene}.toml serial)
+  set_tests_properties(mpi_${scene}_serial PROPERTIES FIXTURES_SETUP mpi_${scene} TIMEOUT 120 LABELS mpi)
+  foreach(np 1 2 3 4)
+    add_test(NAME mpi_${scene}_np${np}
+             COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                     ${POLYDEM_MPI_WORK} mpi_${scene}.toml ${np})
+    set(_labels mpi)
+    if(NOT mpi_${scene}_np${np} IN_LIST _polydem_mpi_min_quick)
+      set(_labels "mpi;slow")
+    endif()
+    set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 180 LABELS "${_labels}")
+  endforeach()
+endforeach()
+if(POLYDEM_WITH_OPENMP)
+  add_test(NAME mpi_min_walls_np2_threads2
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_min_walls.toml 2 --threads 2)
+  set_tests_properties(mpi_min_walls_np2_threads2 PROPERTIES FIXTURES_REQUIRED mpi_min_walls TIMEOUT 180
+                       LABELS "mpi;slow")
+endif()
 # The determinism reference scene (tests/determinism) on 3 ranks: its checked-in SHA-256.
 add_test(NAME mpi_determinism_reference_np3
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_reference.sh $<TARGET_FILE:polydem> ${_polydem_mpi}

@@ -21,8 +21,9 @@ expect() {  # expect REGEX ARGS...: mpirun -np 2 polydem ARGS exits 2 with REGEX
   return 0
 }
 expect "--sweep runs on one process" relax scene.toml -q --sweep dt-factor=50,100
-expect "polydem jam runs on one process.*only .polydem relax." jam -n 50 -o final.txt
-expect "polydem minimise runs on one process" minimise -n 50 -o final.txt
+expect "polydem jam runs on one process.*only .polydem relax. and .polydem minimise." jam -n 50 -o final.txt
+# Conjugate gradients run on one process (the ranks run FIRE).
+expect "--method cg runs on one process" minimise -n 50 --method cg -o final.txt
 # --decomposition means nothing without several ranks: refused, not ignored.
 "$polydem" relax scene.toml -q --steps 10 --decomposition brick > serial.log 2>&1; code=$?
 [ "$code" -eq 2 ] && grep -q "applies to runs on several MPI ranks" serial.log || { cat serial.log; fail "serial --decomposition: exit $code"; }
