@@ -183,6 +183,7 @@ void DistributedFire::rebuild() {
     dem_.exchangeGhosts();  // the cut reads the ghosts' centres
     cut();
   } else {
+    checkCentres();
     dem_.rebuild();  // wraps the centres (as broadPhaseBuild()), migrates, sends fresh ghosts, the candidates
     chunks_.setup(dem_.key_, dem_.ownedSlots_, total_, kChunk);
     growthSinceOuter_ = 0.0;
@@ -192,6 +193,43 @@ void DistributedFire::rebuild() {
   updateMasses();
   ++rebuildsInCall_;
   broadSeconds_ += MPI_Wtime() - t0;
+}
+
+void DistributedFire::checkCentres() {
+  // FireMinimiser::broadPhaseBuild()'s faults, the first in slot order then axis order (where the serial loop
+  // throws), found over the ranks: (key, axis, kind, id) of each rank's first, the smallest wins.
+  double first[4] = {std::numeric_limits<double>::infinity(), 0.0, 0.0, 0.0};
+  for (const Index i : dem_.ownedSlots_) {
+    for (int k = 0; k < 3 && !std::isfinite(first[0]); ++k) {
+      const double xk = dem_.x_(k, i);
+      const double L = dem_.box_.length(k);
+      const bool nonFinite = !std::isfinite(xk);
+      if (nonFinite || (!dem_.box_.periodic(k) && (xk < 0.0 || xk > L))) {
+        first[0] = static_cast<double>(dem_.key_[static_cast<std::size_t>(i)]);
+        first[1] = k;
+        first[2] = nonFinite ? 1.0 : 0.0;
+        first[3] = static_cast<double>(dem_.id_[static_cast<std::size_t>(i)]);
+      }
+    }
+    if (std::isfinite(first[0])) break;  // owned slots ascend by key: the first fault of this rank
+  }
+  gathered_.resize(4 * static_cast<std::size_t>(dem_.size_));
+  {
+    CommTimer timer(dem_.stats_.commSeconds);
+    mpiCheck(MPI_Allgather(first, 4, MPI_DOUBLE, gathered_.data(), 4, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+  }
+  const double* worst = gathered_.data();
+  for (std::size_t q = 4; q < gathered_.size(); q += 4) {
+    if (gathered_[q] < worst[0]) worst = gathered_.data() + q;
+  }
+  if (!std::isfinite(worst[0])) return;
+  const auto id = static_cast<Index>(worst[3]);
+  if (worst[2] != 0.0)
+    throw CollectiveError(fmt::format("minimiser: particle id {} reached a non-finite position", id));
+  throw CollectiveError(fmt::format(
+      "minimiser: particle id {} left the walled box along {} (a step too large for the wall stiffness: reduce "
+      "minimise.dt)",
+      id, "xyz"[static_cast<int>(worst[1])]));
 }
 
 // ---- fire::descend()'s system ------------------------------------------------------------------------------

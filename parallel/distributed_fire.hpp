@@ -74,6 +74,9 @@ class DistributedFire {
   /// The serial FireMinimiser::rebuild(): a cut when no pair outside the candidates can be within the skin,
   /// else a build through the broad phase (wrap, migrate, ghosts, candidates) and a cut. Ghosts current first.
   void rebuild();
+  /// Collective: FireMinimiser::broadPhaseBuild()'s check of the centres (non-finite, outside a walled box), the
+  /// serial message thrown on every rank as CollectiveError.
+  void checkCentres();
   /// The two largest displacements (summed) of all particles from `reference` (3 per local slot), exact over
   /// the ranks; +inf when some centre is not finite.
   double drift(const Eigen::Matrix3Xd& reference);

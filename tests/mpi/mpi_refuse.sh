@@ -24,6 +24,15 @@ expect "--sweep runs on one process" relax scene.toml -q --sweep dt-factor=50,10
 expect "polydem jam runs on one process.*only .polydem relax. and .polydem minimise." jam -n 50 -o final.txt
 # Conjugate gradients run on one process (the ranks run FIRE).
 expect "--method cg runs on one process" minimise -n 50 --method cg -o final.txt
+# A fault on ranks gives the serial run's message and exit code (3), not the time loop's: a dense random start
+# in a walled box that pushes a centre through a wall.
+fault=(minimise -n 900 --dist bi --omega 3 --phi0 0.6 --boundary walls --law hertz --seed 5 --progress 0)
+"$polydem" "${fault[@]}" > fault_serial.log 2>&1; code=$?
+[ "$code" -eq 3 ] || { cat fault_serial.log; fail "serial fault scene: exit $code, expected 3"; }
+"$mpiexec" --oversubscribe -np 2 "$polydem" "${fault[@]}" > fault_np2.log 2>&1; code=$?
+want=$(grep '^polydem:' fault_serial.log); got=$(grep '^polydem:' fault_np2.log)
+[ -n "$want" ] && [ "$want" = "$got" ] || { cat fault_np2.log; fail "the fault on 2 ranks says '$got', the serial run '$want'"; }
+echo "the fault on 2 ranks: $got"
 # --decomposition means nothing without several ranks: refused, not ignored.
 "$polydem" relax scene.toml -q --steps 10 --decomposition brick > serial.log 2>&1; code=$?
 [ "$code" -eq 2 ] && grep -q "applies to runs on several MPI ranks" serial.log || { cat serial.log; fail "serial --decomposition: exit $code"; }
