@@ -28,6 +28,42 @@ FireSums reduceChunk(Index begin, Index end, const double* f, const double* v, c
           fvm[0] + fvm[1],     ffm[0] + ffm[1], std::max(fmax[0], fmax[1])};
 }
 
+std::array<double, 3> directChunk(Index begin, Index end, const double* f, double* d, const double* previous,
+                                  double beta, bool update) {
+  double g = 0.0, dmax = 0.0, fmax = 0.0;
+  for (Index i = begin; i < end; ++i) {
+    const double* fi = f + 3 * i;
+    double* di = d + 3 * i;
+    if (update) {
+      for (int k = 0; k < 3; ++k) di[k] = previous[3 * i + k] + beta * di[k];
+    }
+    g += fi[0] * di[0] + fi[1] * di[1] + fi[2] * di[2];
+    dmax = std::max(dmax, di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
+    fmax = std::max(fmax, fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
+  }
+  return {g, dmax, fmax};
+}
+
+double alongChunk(Index begin, Index end, const double* f, const double* d) {
+  double g = 0.0;
+  for (Index k = 3 * begin; k < 3 * end; ++k) g += f[k] * d[k];
+  return g;
+}
+
+std::array<double, 2> preconditionChunk(Index begin, Index end, const double* f, const double* im, double* previous) {
+  double sNew = 0.0, change = 0.0;
+  for (Index i = begin; i < end; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const Index a = 3 * i + k;
+      const double sk = im[i] * f[a];
+      sNew += f[a] * sk;
+      change += f[a] * (sk - previous[a]);
+      previous[a] = sk;
+    }
+  }
+  return {sNew, change};
+}
+
 MeasureSums measureChunk(Index begin, Index end, const double* part, const double* radius) {
   MeasureSums s;
   for (Index i = begin; i < end; ++i) {

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -107,6 +108,16 @@ ContactTally tallyContacts(const contact::ContactModel& model, const contact::Fo
 /// r^3; `forceSq` the largest |F_i|^2; `stepSq` the largest |F_i|^2 / m_i^2.
 MinimiserReport assembleReport(const ContactTally& tally, const MeasureSums& sums, double forceSq, double stepSq,
                                const Box& box, double pressureUnit, double referenceForce);
+
+/// Conjugate gradients' passes over particles [begin, end) of one chunk (fire_minimiser.hpp), out of line (one
+/// definition of the roundings for every system):
+/// with `update`, first d = previous + beta d; then {F.d, max |d_i|^2, max |F_i|^2}.
+std::array<double, 3> directChunk(Index begin, Index end, const double* f, double* d, const double* previous,
+                                  double beta, bool update);
+/// F.d, component by component.
+double alongChunk(Index begin, Index end, const double* f, const double* d);
+/// s = M^-1 F into `previous`: {F.s, F.(s - previous)}.
+std::array<double, 2> preconditionChunk(Index begin, Index end, const double* f, const double* im, double* previous);
 
 /// The stopping rule after a measurement at force evaluation `it` (every method): the reason to stop, or
 /// nullptr (fire_minimiser.hpp: converged, no contacts, overlaps at round-off, round-off floor).
@@ -235,6 +246,97 @@ FireResult descend(System& s, const FireSettings& fs, const std::function<void(c
     const double keep = fNorm > 0.0 ? 1.0 - alpha : 1.0;
     const double toward = fNorm > 0.0 ? alpha * kicked / fNorm : 0.0;
     s.advance(dt, keep, toward);
+  }
+}
+
+/// Preconditioned Polak-Ribiere+ conjugate gradients from the system's current state (fire_minimiser.hpp:
+/// s = M^-1 F, d = s + beta d, a line search of one trial move and one secant move; `dt` holds the line step,
+/// in units of M^-1 F). Besides descend()'s system calls:
+///   std::array<double, 3> direct(double beta, bool update)   {F.d, max |d_i|^2, max |F_i|^2}, with `update`
+///                                                            first d = s + beta d; polls the interrupt flag
+///   double along()                                           F.d
+///   std::array<double, 2> precondition()                     s = M^-1 F: {F.s, F.(s - s_old)}
+///   void resetPrevious()                                     s_old = 0
+///   void restartDirection()                                  d = s
+///   void moveAlong(double a)                                 x += a d; the list check; forces
+///   double skin() const
+template <class System>
+FireResult descendByCg(System& s, const FireSettings& fs, const std::function<void(const MinimiserReport&)>& progress,
+                       bool stopOnInterrupt) {
+  using Clock = std::chrono::steady_clock;
+  FireResult res;
+  double measureSeconds = 0.0;
+  auto timedMeasure = [&] {
+    const auto t0 = Clock::now();
+    MinimiserReport r = s.measure();
+    measureSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    return r;
+  };
+  const MinimiserReport start = timedMeasure();
+  s.prepare(start);
+  StopRule rule(fs, start, s.overlapFloor());
+  double dt = 0.0;
+  auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
+    res.converged = converged;
+    res.stopReason = reason;
+    res.iterations = it;
+    res.last = report ? *report : timedMeasure();
+    res.last.iteration = it;
+    res.last.dt = dt;
+    res.seconds.measure = measureSeconds;
+    s.finish(res);
+    return res;
+  };
+  s.resetPrevious();
+  double sOld = s.precondition()[0];  // F.M^-1 F at the last iteration
+  s.restartDirection();
+  std::array<double, 3> dir = s.direct(0.0, false);
+  dt = 0.5;  // the line minimum of a mode of preconditioned stiffness 2 (about the stiffest) lies at 0.5
+  std::int64_t evaluations = 0;
+  for (std::int64_t iteration = 0;; ++iteration) {
+    double g0 = dir[0], dmaxSq = dir[1];
+    const double fmaxSq = dir[2];
+    if (!std::isfinite(fmaxSq)) {
+      throw SimulationError(fmt::format("minimiser: non-finite forces at CG iteration {}", iteration));
+    }
+    const double fmax = std::sqrt(fmaxSq);
+    // Every 128 iterations = 256 force evaluations, as FIRE measures.
+    if (fmax <= fs.forceTolerance * rule.knownScale || fmaxSq == 0.0 || iteration % (kMeasureEvery / 2) == 0) {
+      const MinimiserReport now = timedMeasure();
+      if (const char* why = rule.verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
+    }
+    if (evaluations >= fs.maxIterations) return finish(false, "iteration budget", evaluations, nullptr);
+    if (stopOnInterrupt && s.interrupted()) return finish(false, "interrupted", evaluations, nullptr);
+    if (progress && fs.progressInterval > 0 && iteration % ((fs.progressInterval + 1) / 2) == 0) {
+      MinimiserReport now = timedMeasure();
+      now.iteration = evaluations;
+      now.dt = dt;
+      rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
+      progress(now);
+    }
+    if (!(g0 > 0.0)) {  // not a descent direction: restart along M^-1 F
+      ++res.uphillSteps;
+      g0 = sOld;
+      s.restartDirection();
+      dmaxSq = s.direct(0.0, false)[1];
+    }
+    // No line move carries a sphere further than one skin (a guard: near jamming the moves are ~1e-6 of it;
+    // without it, a direction without positive curvature would grow the step 4x per iteration unbounded).
+    const double reach = dmaxSq > 0.0 ? s.skin() / std::sqrt(dmaxSq) : 4.0 * dt;
+    const double trial = std::min(dt, reach);
+    s.moveAlong(trial);
+    const double g1 = s.along();
+    // The secant root of g(a) = F(x + a d).d; where g did not fall (no positive curvature along d), go on
+    // downhill by the cap.
+    const double secant = g0 > g1 ? trial * g0 / (g0 - g1) : 4.0 * trial;
+    const double best = std::min({secant, 4.0 * trial, reach});
+    s.moveAlong(best - trial);
+    evaluations += 2;
+    dt = std::max(best, 1e-4);  // the next trial: the last line step (kept off zero)
+    const std::array<double, 2> pre = s.precondition();
+    const double beta = sOld > 0.0 ? std::max(0.0, pre[1] / sOld) : 0.0;
+    sOld = pre[0];
+    dir = s.direct(beta, true);
   }
 }
 

@@ -457,10 +457,62 @@ class FireMinimiser::Serial {
   }
   void finish(FireResult& res) { m_.finishCall(res); }
 
+  // Conjugate gradients (fire::descendByCg): the passes by chunks, sums added in chunk order.
+  void resetPrevious() {
+    const std::size_t m = 3 * static_cast<std::size_t>(m_.particles_.count());
+    m_.cgDirection_.resize(m);
+    m_.cgPrevious_.assign(m, 0.0);
+    parts_.resize(chunkSums_.size());
+  }
+  std::array<double, 2> precondition() {
+    const double* f = m_.particles_.force().data();
+    const double* im = m_.particles_.inverseMass().data();
+    double* previous = m_.cgPrevious_.data();
+    std::array<double, 3>* part = parts_.data();
+    forChunks(m_.particles_.count(), m_.settings_.threads, [=](Index c, Index begin, Index end) {
+      const std::array<double, 2> p = fire::preconditionChunk(begin, end, f, im, previous);
+      part[c] = {p[0], p[1], 0.0};
+    });
+    return {total(0), total(1)};
+  }
+  void restartDirection() { std::copy(m_.cgPrevious_.begin(), m_.cgPrevious_.end(), m_.cgDirection_.begin()); }
+  std::array<double, 3> direct(double beta, bool update) {
+    const double* f = m_.particles_.force().data();
+    double* d = m_.cgDirection_.data();
+    const double* previous = m_.cgPrevious_.data();
+    std::array<double, 3>* part = parts_.data();
+    forChunks(m_.particles_.count(), m_.settings_.threads, [=](Index c, Index begin, Index end) {
+      part[c] = fire::directChunk(begin, end, f, d, previous, beta, update);
+    });
+    return {total(0), largest(1), largest(2)};
+  }
+  double along() {
+    const double* f = m_.particles_.force().data();
+    const double* d = m_.cgDirection_.data();
+    std::array<double, 3>* part = parts_.data();
+    forChunks(m_.particles_.count(), m_.settings_.threads,
+              [=](Index c, Index begin, Index end) { part[c][0] = fire::alongChunk(begin, end, f, d); });
+    return total(0);
+  }
+  void moveAlong(double a) { m_.moveAlong(m_.cgDirection_.data(), a); }
+  double skin() const { return m_.verlet_.skin(); }
+
  private:
+  double total(std::size_t k) const {
+    double sum = 0.0;
+    for (const auto& p : parts_) sum += p[k];
+    return sum;
+  }
+  double largest(std::size_t k) const {
+    double most = 0.0;
+    for (const auto& p : parts_) most = std::max(most, p[k]);
+    return most;
+  }
+
   FireMinimiser& m_;
   bool stopOnInterrupt_;
-  std::vector<fire::FireSums> chunkSums_;  // once per call, not per step
+  std::vector<fire::FireSums> chunkSums_;     // once per call, not per step
+  std::vector<std::array<double, 3>> parts_;  // conjugate gradients' per-chunk sums
 };
 
 FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrupt) {
@@ -471,162 +523,9 @@ FireResult FireMinimiser::minimise(const Progress& progress, bool stopOnInterrup
   callStart_ = Clock::now();
   broadAtStart_ = broadSeconds_;
   forceAtStart_ = forceSeconds_;
-  if (settings_.method == MinimiserMethod::Fire) {
-    Serial system(*this, stopOnInterrupt);
-    return fire::descend(system, fs, progress, stopOnInterrupt);
-  }
-  // Conjugate gradients (serial only).
-  FireResult res;
-  double measureSeconds = 0.0;
-  auto timedMeasure = [&] {
-    const auto t0 = Clock::now();
-    MinimiserReport r = measure();
-    measureSeconds += seconds(t0, Clock::now());
-    return r;
-  };
-  const MinimiserReport start = timedMeasure();
-  prepareDescent(start);
-  const Index n = particles_.count();
-  const double* f = particles_.force().data();
-  const double* im = particles_.inverseMass().data();
-  double dt = 0.0;
-  fire::StopRule rule(fs, start, 64.0 * std::numeric_limits<double>::epsilon() * box_.lengths().maxCoeff());
-  auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
-    res.converged = converged;
-    res.stopReason = reason;
-    res.iterations = it;
-    res.last = report ? *report : timedMeasure();
-    res.last.iteration = it;
-    res.last.dt = dt;
-    res.seconds.measure = measureSeconds;
-    finishCall(res);
-    return res;
-  };
-  auto report = [&](std::int64_t it, double step) {
-    MinimiserReport now = timedMeasure();
-    now.iteration = it;
-    now.dt = step;
-    rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
-    progress(now);
-  };
-  const int threads = settings_.threads;
-  const Index chunks = fireChunks(n);
-  {
-    // Preconditioned Polak-Ribiere+ conjugate gradients (the header): s = M^-1 F, d = s + beta d, and a line
-    // search of one trial move and one secant move. `dt` holds the line step, in units of M^-1 F. The passes
-    // over the particles run by chunks (forChunks, sums added in chunk order: the same for any thread count),
-    // and the direction update also gives the next iteration's F.d, max |d_i| and max |F_i|: five passes (was eight)
-    // and two force evaluations per iteration.
-    const std::size_t m = 3 * static_cast<std::size_t>(n);
-    cgDirection_.resize(m);
-    cgPrevious_.resize(m);
-    double* d = cgDirection_.data();
-    double* previous = cgPrevious_.data();                                          // M^-1 F at the last iteration
-    std::vector<std::array<double, 3>> perChunk(static_cast<std::size_t>(chunks));  // once per call
-    std::array<double, 3>* part = perChunk.data();
-    auto total = [&](int k) {
-      double sum = 0.0;
-      for (Index c = 0; c < chunks; ++c) sum += part[c][static_cast<std::size_t>(k)];
-      return sum;
-    };
-    auto largest = [&](int k) {
-      double most = 0.0;
-      for (Index c = 0; c < chunks; ++c) most = std::max(most, part[c][static_cast<std::size_t>(k)]);
-      return most;
-    };
-    // F.d (0), max |d_i|^2 (1), max |F_i|^2 (2) for the direction as it is; with `beta` >= 0 first
-    // d = M^-1 F + beta d (the previous M^-1 F being the current one here).
-    auto direct = [&](double beta, bool update) {
-      forChunks(n, threads, [=](Index c, Index begin, Index end) {
-        double g = 0.0, dmax = 0.0, fmax = 0.0;
-        for (Index i = begin; i < end; ++i) {
-          const double* fi = f + 3 * i;
-          double* di = d + 3 * i;
-          if (update) {
-            for (int k = 0; k < 3; ++k) di[k] = previous[3 * i + k] + beta * di[k];
-          }
-          g += fi[0] * di[0] + fi[1] * di[1] + fi[2] * di[2];
-          dmax = std::max(dmax, di[0] * di[0] + di[1] * di[1] + di[2] * di[2]);
-          fmax = std::max(fmax, fi[0] * fi[0] + fi[1] * fi[1] + fi[2] * fi[2]);
-        }
-        part[c] = {g, dmax, fmax};
-      });
-    };
-    auto alongDirection = [&] {
-      forChunks(n, threads, [=](Index c, Index begin, Index end) {
-        double g = 0.0;
-        for (Index k = 3 * begin; k < 3 * end; ++k) g += f[k] * d[k];
-        part[c][0] = g;
-      });
-      return total(0);
-    };
-    // M^-1 F into `previous`: F.M^-1 F (0) and F.(M^-1 F - previous) (1).
-    auto precondition = [&] {
-      forChunks(n, threads, [=](Index c, Index begin, Index end) {
-        double sNew = 0.0, change = 0.0;
-        for (Index i = begin; i < end; ++i) {
-          for (int k = 0; k < 3; ++k) {
-            const Index a = 3 * i + k;
-            const double sk = im[i] * f[a];
-            sNew += f[a] * sk;
-            change += f[a] * (sk - previous[a]);
-            previous[a] = sk;
-          }
-        }
-        part[c] = {sNew, change, 0.0};
-      });
-    };
-    std::fill(previous, previous + m, 0.0);
-    precondition();
-    double sOld = total(0);  // F.M^-1 F at the last iteration
-    std::copy(previous, previous + m, d);
-    direct(0.0, false);
-    dt = 0.5;  // the line minimum of a mode of preconditioned stiffness 2 (about the stiffest) lies at 0.5
-    std::int64_t evaluations = 0;
-    for (std::int64_t iteration = 0;; ++iteration) {
-      double g0 = total(0), dmaxSq = largest(1);
-      const double fmaxSq = largest(2);
-      if (!std::isfinite(fmaxSq)) {
-        throw SimulationError(fmt::format("minimiser: non-finite forces at CG iteration {}", iteration));
-      }
-      const double fmax = std::sqrt(fmaxSq);
-      // Every 128 iterations = 256 force evaluations, as FIRE measures.
-      if (fmax <= fs.forceTolerance * rule.knownScale || fmaxSq == 0.0 || iteration % (fire::kMeasureEvery / 2) == 0) {
-        const MinimiserReport now = timedMeasure();
-        if (const char* why = rule.verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
-      }
-      if (evaluations >= fs.maxIterations) return finish(false, "iteration budget", evaluations, nullptr);
-      if (stopOnInterrupt && interruptRequested()) return finish(false, "interrupted", evaluations, nullptr);
-      if (progress && fs.progressInterval > 0 && iteration % ((fs.progressInterval + 1) / 2) == 0) {
-        report(evaluations, dt);
-      }
-      if (!(g0 > 0.0)) {  // not a descent direction: restart along M^-1 F
-        ++res.uphillSteps;
-        g0 = sOld;
-        std::copy(previous, previous + m, d);
-        direct(0.0, false);
-        dmaxSq = largest(1);
-      }
-      // No line move carries a sphere further than one skin (a guard: near jamming the moves are ~1e-6 of it;
-      // without it, a direction without positive curvature would grow the step 4x per iteration unbounded).
-      const double reach = dmaxSq > 0.0 ? verlet_.skin() / std::sqrt(dmaxSq) : 4.0 * dt;
-      const double trial = std::min(dt, reach);
-      moveAlong(d, trial);
-      const double g1 = alongDirection();
-      // The secant root of g(a) = F(x + a d).d; where g did not fall (no positive curvature along d), go on
-      // downhill by the cap.
-      const double secant = g0 > g1 ? trial * g0 / (g0 - g1) : 4.0 * trial;
-      const double best = std::min({secant, 4.0 * trial, reach});
-      moveAlong(d, best - trial);
-      evaluations += 2;
-      dt = std::max(best, 1e-4);  // the next trial: the last line step (kept off zero)
-      precondition();
-      const double sNew = total(0), change = total(1);
-      const double beta = sOld > 0.0 ? std::max(0.0, change / sOld) : 0.0;
-      sOld = sNew;
-      direct(beta, true);
-    }
-  }
+  Serial system(*this, stopOnInterrupt);
+  if (settings_.method == MinimiserMethod::Fire) return fire::descend(system, fs, progress, stopOnInterrupt);
+  return fire::descendByCg(system, fs, progress, stopOnInterrupt);
 }
 
 void FireMinimiser::adoptState(const Eigen::Matrix3Xd& x, const Eigen::VectorXd& r) {

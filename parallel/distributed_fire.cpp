@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -27,11 +28,6 @@ integrators::DemState stateOf(const integrators::FireMinimiser& m) {
   if (ls.moved || ls.growthSinceBuild != 0.0 || ls.growthSinceOuter != 0.0 ||
       m.neighbours().referenceRadius() != m.particles().radius()) {
     throw std::logic_error("DistributedFire: the minimiser's particles changed since its construction");
-  }
-  if (m.settings().method != integrators::MinimiserMethod::Fire) {
-    throw ConfigError(
-        fmt::format("--method {} runs on one process (MPI ranks run FIRE); run it without mpirun or use --method fire",
-                    integrators::methodName(m.settings().method)));
   }
   const ParticleStore& p = m.particles();
   integrators::DemState g;
@@ -262,16 +258,9 @@ integrators::fire::FireSums DistributedFire::sums() {
         out[6] = im[i];
       },
       [&](Index, Index count, const double* packed, double* out) {
-        packScratch_.resize(7 * static_cast<std::size_t>(count));
-        double* pf = packScratch_.data();
-        double* pv = pf + 3 * count;
-        double* pm = pv + 3 * count;
-        for (Index i = 0; i < count; ++i) {
-          for (int k = 0; k < 3; ++k) pf[3 * i + k] = packed[7 * i + k];
-          for (int k = 0; k < 3; ++k) pv[3 * i + k] = packed[7 * i + 3 + k];
-          pm[i] = packed[7 * i + 6];
-        }
-        integrators::fire::reduceChunk(0, count, pf, pv, pm).store(out);
+        unpack(count, packed, 7);
+        const double* pf = packScratch_.data();
+        integrators::fire::reduceChunk(0, count, pf, pf + 3 * count, pf + 6 * count).store(out);
       },
       extra_, &dem_.stats_.commSeconds);
   FireSums total;
@@ -300,6 +289,11 @@ void DistributedFire::advance(double dt, double keep, double toward) {
   for (const Index i : dem_.ownedSlots_) {
     largest.add(integrators::fire::kickMixDrift(i, dt, keep, toward, f, v, x, im, ref));
   }
+  dem_.stats_.loopSeconds += MPI_Wtime() - t0;
+  afterMove(largest);
+}
+
+void DistributedFire::afterMove(const integrators::fire::LargestTwo& largest) {
   gathered_.resize(2 * static_cast<std::size_t>(dem_.size_));
   const double mine[2] = {largest.first, largest.second};
   {
@@ -309,7 +303,6 @@ void DistributedFire::advance(double dt, double keep, double toward) {
   integrators::fire::LargestTwo global;
   for (const double d : gathered_) global.add(d);
   pairDrift_ = global.drift();
-  dem_.stats_.loopSeconds += MPI_Wtime() - t0;
   // FireMinimiser::listStale().
   if (pairDrift_ + 2.0 * growthSinceBuild_ > skin_) {
     rebuild();
@@ -333,6 +326,138 @@ double DistributedFire::overlapFloor() const {
   return 64.0 * std::numeric_limits<double>::epsilon() * dem_.box_.lengths().maxCoeff();
 }
 
+// ---- conjugate gradients (fire::descendByCg): d in v_, M^-1 F of the last iteration in vp_ (both migrate) ---
+
+void DistributedFire::resetPrevious() { dem_.vp_.setZero(); }
+
+void DistributedFire::restartDirection() {
+  for (const Index i : dem_.ownedSlots_) dem_.v_.col(i) = dem_.vp_.col(i);
+}
+
+std::array<double, 2> DistributedFire::precondition() {
+  const double* f = dem_.f_.data();
+  const double* im = dem_.invm_.data();
+  double* previous = dem_.vp_.data();
+  extra_.clear();
+  const std::vector<double>& r = chunks_.reduce(
+      2, 7,
+      [&](Index, Index begin, Index end, double* out) {
+        const std::array<double, 2> p = integrators::fire::preconditionChunk(begin, end, f, im, previous);
+        out[0] = p[0];
+        out[1] = p[1];
+      },
+      [&](Index i, double* out) {  // the values before the pass, then the pass on this particle (once per particle)
+        for (int k = 0; k < 3; ++k) out[k] = f[3 * i + k];
+        for (int k = 0; k < 3; ++k) out[3 + k] = previous[3 * i + k];
+        out[6] = im[i];
+        integrators::fire::preconditionChunk(i, i + 1, f, im, previous);
+      },
+      [&](Index, Index count, const double* packed, double* out) {
+        unpack(count, packed, 7);
+        const std::array<double, 2> p = integrators::fire::preconditionChunk(
+            0, count, packScratch_.data(), packScratch_.data() + 6 * count, packScratch_.data() + 3 * count);
+        out[0] = p[0];
+        out[1] = p[1];
+      },
+      extra_, &dem_.stats_.commSeconds);
+  double s = 0.0, change = 0.0;
+  for (Index c = 0; c < chunks_.chunks(); ++c) {
+    s += r[static_cast<std::size_t>(2 * c)];
+    change += r[static_cast<std::size_t>(2 * c + 1)];
+  }
+  return {s, change};
+}
+
+std::array<double, 3> DistributedFire::direct(double beta, bool update) {
+  const double* f = dem_.f_.data();
+  double* d = dem_.v_.data();
+  const double* previous = dem_.vp_.data();
+  extra_.assign(1, stopOnInterrupt_ && interruptRequested() ? 1.0 : 0.0);
+  const std::vector<double>& r = chunks_.reduce(
+      3, 6,
+      [&](Index, Index begin, Index end, double* out) {
+        const std::array<double, 3> p = integrators::fire::directChunk(begin, end, f, d, previous, beta, update);
+        std::copy(p.begin(), p.end(), out);
+      },
+      [&](Index i, double* out) {  // the update on this particle first (once per particle), then its values
+        integrators::fire::directChunk(i, i + 1, f, d, previous, beta, update);
+        for (int k = 0; k < 3; ++k) out[k] = f[3 * i + k];
+        for (int k = 0; k < 3; ++k) out[3 + k] = d[3 * i + k];
+      },
+      [&](Index, Index count, const double* packed, double* out) {
+        unpack(count, packed, 6);
+        const std::array<double, 3> p = integrators::fire::directChunk(
+            0, count, packScratch_.data(), packScratch_.data() + 3 * count, nullptr, 0.0, false);
+        std::copy(p.begin(), p.end(), out);
+      },
+      extra_, &dem_.stats_.commSeconds);
+  double g = 0.0, dmax = 0.0, fmax = 0.0;
+  for (Index c = 0; c < chunks_.chunks(); ++c) {
+    g += r[static_cast<std::size_t>(3 * c)];
+    dmax = std::max(dmax, r[static_cast<std::size_t>(3 * c + 1)]);
+    fmax = std::max(fmax, r[static_cast<std::size_t>(3 * c + 2)]);
+  }
+  interrupted_ = r.back() > 0.0;
+  return {g, dmax, fmax};
+}
+
+double DistributedFire::along() {
+  const double* f = dem_.f_.data();
+  const double* d = dem_.v_.data();
+  extra_.clear();
+  const std::vector<double>& r = chunks_.reduce(
+      1, 6, [&](Index, Index begin, Index end, double* out) { *out = integrators::fire::alongChunk(begin, end, f, d); },
+      [&](Index i, double* out) {
+        for (int k = 0; k < 3; ++k) out[k] = f[3 * i + k];
+        for (int k = 0; k < 3; ++k) out[3 + k] = d[3 * i + k];
+      },
+      [&](Index, Index count, const double* packed, double* out) {
+        unpack(count, packed, 6);
+        *out = integrators::fire::alongChunk(0, count, packScratch_.data(), packScratch_.data() + 3 * count);
+      },
+      extra_, &dem_.stats_.commSeconds);
+  double g = 0.0;
+  for (Index c = 0; c < chunks_.chunks(); ++c) g += r[static_cast<std::size_t>(c)];
+  return g;
+}
+
+void DistributedFire::unpack(Index count, const double* packed, int width) {
+  // Records of `width` values (3-vectors first, then scalars) into arrays: the 3-vectors as 3 x count blocks
+  // one after the other, then the scalars as count-long blocks.
+  packScratch_.resize(static_cast<std::size_t>(width) * static_cast<std::size_t>(count));
+  const int vectors = width / 3;
+  for (Index i = 0; i < count; ++i) {
+    const double* rec = packed + width * i;
+    for (int v = 0; v < vectors; ++v) {
+      for (int k = 0; k < 3; ++k) packScratch_[static_cast<std::size_t>(3 * count * v + 3 * i + k)] = rec[3 * v + k];
+    }
+    for (int s = 3 * vectors; s < width; ++s) {
+      packScratch_[static_cast<std::size_t>(3 * count * vectors + count * (s - 3 * vectors) + i)] = rec[s];
+    }
+  }
+}
+
+void DistributedFire::moveAlong(double a) {
+  // FireMinimiser::moveAlong(): x += a d with the displacement since the build, the list check, the forces.
+  const double t0 = MPI_Wtime();
+  double* x = dem_.x_.data();
+  const double* d = dem_.v_.data();
+  const double* ref = innerReference_.data();
+  integrators::fire::LargestTwo largest;
+  for (const Index i : dem_.ownedSlots_) {
+    double dsq = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const Index j = 3 * i + k;
+      x[j] += a * d[j];
+      const double dx = x[j] - ref[j];
+      dsq += dx * dx;
+    }
+    largest.add(dsq);
+  }
+  dem_.stats_.loopSeconds += MPI_Wtime() - t0;
+  afterMove(largest);
+}
+
 // ---- the public operations -----------------------------------------------------------------------------------
 
 integrators::FireResult DistributedFire::minimise(const Progress& progress, bool stopOnInterrupt) {
@@ -343,6 +468,9 @@ integrators::FireResult DistributedFire::minimise(const Progress& progress, bool
   broadAtStart_ = broadSeconds_;
   forceAtStart_ = forceSeconds_;
   stopOnInterrupt_ = stopOnInterrupt;
+  if (settings_.method == integrators::MinimiserMethod::ConjugateGradient) {
+    return integrators::fire::descendByCg(*this, settings_.fire, progress, stopOnInterrupt);
+  }
   return integrators::fire::descend(*this, settings_.fire, progress, stopOnInterrupt);
 }
 

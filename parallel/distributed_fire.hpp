@@ -16,8 +16,10 @@
 //     parallel/keyed_chunks.hpp; maxima and counts are exact over the ranks;
 //   - the descent is the one loop of integrators/fire_descent.hpp, so every decision (uphill, dt, stop) is
 //     the serial one.
-// Not here: conjugate gradients (`--method cg`) run on one process (a ConfigError says so).
+// Conjugate gradients (`--method cg`) run the same way (fire::descendByCg), the direction and the last
+// preconditioned force kept in the DistributedDem's velocity arrays, which migrate with their particles.
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -65,10 +67,24 @@ class DistributedFire {
   void advance(double dt, double keep, double toward);
   void finish(integrators::FireResult& res);
   double overlapFloor() const;
+  // fire::descendByCg()'s system.
+  void resetPrevious();
+  std::array<double, 2> precondition();
+  void restartDirection();
+  std::array<double, 3> direct(double beta, bool update);
+  double along();
+  void moveAlong(double a);
+  double skin() const { return skin_; }
 
  private:
   /// The list within the skin from the outer candidates, at the current centres (ghosts current).
   void cut();
+  /// After a move: the exact pair drift over the ranks (each rank's two largest displacements), the list check,
+  /// then the ghosts (exchanged, or fresh from a build) and the forces.
+  void afterMove(const integrators::fire::LargestTwo& largest);
+  /// A split chunk's packed records (`width` values per particle: 3-vectors, then scalars) into packScratch_ as
+  /// arrays: each 3-vector field 3 x count, then each scalar field count long.
+  void unpack(Index count, const double* packed, int width);
   void updateMasses();
   void computeForces();
   /// The serial FireMinimiser::rebuild(): a cut when no pair outside the candidates can be within the skin,

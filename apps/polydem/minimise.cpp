@@ -418,10 +418,6 @@ int runMinimise(MinimiseOptions& o, CLI::App& cmd) {
     if (o.contacts) io::checkOutputPath(io::contactPathFor(o.output), "--contacts (the contact file)", inputs);
   }
   const bool ranks = minimiseOnSeveralRanks();  // docs/parallel.md
-  if (ranks && o.method == "cg") {
-    throw ConfigError(
-        "--method cg runs on one process (MPI ranks run FIRE): run it without mpirun, or use --method fire");
-  }
   Start start = makeStart(o, cmd);
   // The input's hard-sphere phi_J estimate, read (and checked) before any work.
   const double jammingEstimate = protocol ? jammingEstimateOf(o, start) : 0.0;

@@ -196,6 +196,21 @@ foreach(scene min_jam min_walls)
     set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 180 LABELS "${_labels}")
   endforeach()
 endforeach()
+# Conjugate gradients on ranks: the same protocol with --method cg.
+add_test(NAME mpi_min_jam_cg_serial
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} mpi_min_jam.toml serial --method cg)
+set_tests_properties(mpi_min_jam_cg_serial PROPERTIES FIXTURES_SETUP mpi_min_jam_cg TIMEOUT 120 LABELS mpi)
+foreach(np 2 3)
+  add_test(NAME mpi_min_jam_cg_np${np}
+           COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                   ${POLYDEM_MPI_WORK} mpi_min_jam.toml ${np} --method cg)
+  set(_labels "mpi;slow")
+  if(np EQUAL 2)
+    set(_labels mpi)
+  endif()
+  set_tests_properties(mpi_min_jam_cg_np${np} PROPERTIES FIXTURES_REQUIRED mpi_min_jam_cg TIMEOUT 180 LABELS "${_labels}")
+endforeach()
 if(POLYDEM_WITH_OPENMP)
   add_test(NAME mpi_min_walls_np2_threads2
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}

@@ -12,8 +12,10 @@ export OMPI_MCA_mpi_yield_when_idle=1 OMP_WAIT_POLICY=PASSIVE  # more ranks (and
 export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
 name="${scene%.toml}"
 tag=$(printf '%s' "$*" | tr -cs 'A-Za-z0-9' '_')
+# The serial reference of these options: the same options but --threads (threads change no bit).
+reftag=$(printf '%s' "$*" | sed -E 's/--threads +[0-9]+//g; s/^ +| +$//g' | tr -cs 'A-Za-z0-9' '_')
 dir="$work/$name/$np$tag"
-[ "$np" = serial ] && dir="$work/$name/serial"
+[ "$np" = serial ] && dir="$work/$name/serial$reftag"
 rm -rf "$dir"; mkdir -p "$dir"; cd "$dir" || exit 1
 cp "$work/$scene" scene.toml
 fail() { echo "FAIL: $*"; exit 1; }
@@ -27,7 +29,7 @@ if [ "$np" = serial ]; then
   [ -s results.txt ] || fail "no result lines in the serial report"
   exit 0
 fi
-ref="$work/$name/serial"
+ref="$work/$name/serial$reftag"
 [ -f "$ref/packing.h5" ] || fail "no serial reference in $ref"
 echo "+ mpirun -np $np polydem minimise scene.toml $*"
 "$mpiexec" --oversubscribe -np "$np" "$polydem" minimise scene.toml -o packing.h5 "$@" > run.log 2>&1 ||

@@ -22,8 +22,6 @@ expect() {  # expect REGEX ARGS...: mpirun -np 2 polydem ARGS exits 2 with REGEX
 }
 expect "--sweep runs on one process" relax scene.toml -q --sweep dt-factor=50,100
 expect "polydem jam runs on one process.*only .polydem relax. and .polydem minimise." jam -n 50 -o final.txt
-# Conjugate gradients run on one process (the ranks run FIRE).
-expect "--method cg runs on one process" minimise -n 50 --method cg -o final.txt
 # A fault on ranks gives the serial run's message and exit code (3), not the time loop's: a dense random start
 # in a walled box that pushes a centre through a wall.
 fault=(minimise -n 900 --dist bi --omega 3 --phi0 0.6 --boundary walls --law hertz --seed 5 --progress 0)
