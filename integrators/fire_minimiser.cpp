@@ -123,6 +123,7 @@ FireMinimiser::FireMinimiser(ParticleStore particles, const Box& box, const Mini
     throw ConfigError(fmt::format("run.threads = {} needs a build with POLYDEM_WITH_OPENMP=ON", settings_.threads));
   }
   verlet_.setBlocks(settings_.threads);
+  verlet_.setThreads(settings_.threads);  // the broad phase and the list build too (the same list for any count)
   settings_.skin = verlet_.skin();
   if (settings_.outerSkin < 0.0) {
     // The default, 5 x skin, as far as the box allows: a periodic edge must hold 2 (2 r_max + outer skin)

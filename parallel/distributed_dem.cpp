@@ -149,6 +149,7 @@ DistributedDem::DistributedDem(const integrators::DemState& g, const integrators
   initialEnergy_ = g.initialEnergy;
   growth_ = g.growthSinceBuild;
   backend_ = broadphase::makeBroadPhase(settings_.broadPhase);
+  backend_->setThreads(settings_.threads);  // buildList() sorts the rows: the same list for any thread count
   if (auto* chooser = dynamic_cast<broadphase::AutoSelect*>(backend_.get())) {
     // Every rank builds on its own changing share of particles and ghosts: `auto` optimises once for the
     // whole system (global radii and density, as the serial run does) with rank 0's calibrated K, so all
