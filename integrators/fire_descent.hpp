@@ -162,21 +162,52 @@ class StopRule {
 /// The state is measured every this many force evaluations (and whenever the residual looks converged).
 constexpr std::int64_t kMeasureEvery = 256;
 
-/// FIRE 2.0 from the system's current state (the header of fire_minimiser.hpp). `seconds` accumulates the
-/// wall time of the measurements.
+/// The bookkeeping of one descent (FIRE or CG): measurements timed, and the result filled at the stop.
+template <class System>
+class Descent {
+ public:
+  explicit Descent(System& s) : s_(s) {}
+  MinimiserReport measure() {
+    const auto t0 = std::chrono::steady_clock::now();
+    MinimiserReport r = s_.measure();
+    seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return r;
+  }
+  /// The result of a stop at force evaluation `it` with the last step `dt`; `report` the measurement that
+  /// decided it, or nullptr (measured now).
+  FireResult finish(bool converged, const char* reason, std::int64_t it, double dt, const MinimiserReport* report) {
+    result.converged = converged;
+    result.stopReason = reason;
+    result.iterations = it;
+    result.last = report ? *report : measure();
+    result.last.iteration = it;
+    result.last.dt = dt;
+    result.seconds.measure = seconds_;
+    s_.finish(result);
+    return result;
+  }
+  /// A progress report at force evaluation `it` (also refreshes the rule's force scale).
+  void report(const std::function<void(const MinimiserReport&)>& progress, std::int64_t it, double dt, StopRule& rule,
+              const FireSettings& fs) {
+    MinimiserReport now = measure();
+    now.iteration = it;
+    now.dt = dt;
+    rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
+    progress(now);
+  }
+  FireResult result;
+
+ private:
+  System& s_;
+  double seconds_ = 0.0;
+};
+
+/// FIRE 2.0 from the system's current state (the header of fire_minimiser.hpp).
 template <class System>
 FireResult descend(System& s, const FireSettings& fs, const std::function<void(const MinimiserReport&)>& progress,
                    bool stopOnInterrupt) {
-  using Clock = std::chrono::steady_clock;
-  FireResult res;
-  double measureSeconds = 0.0;
-  auto timedMeasure = [&] {
-    const auto t0 = Clock::now();
-    MinimiserReport r = s.measure();
-    measureSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    return r;
-  };
-  const MinimiserReport start = timedMeasure();
+  Descent<System> call(s);
+  const MinimiserReport start = call.measure();
   s.prepare(start);
   StopRule rule(fs, start, s.overlapFloor());
   const double dtMax = fs.dt * fs.dtMaxFactor;
@@ -184,17 +215,8 @@ FireResult descend(System& s, const FireSettings& fs, const std::function<void(c
   double dt = fs.dt;
   double alpha = fs.alphaStart;
   std::int64_t downhill = 0, uphill = 0;
-
   auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
-    res.converged = converged;
-    res.stopReason = reason;
-    res.iterations = it;
-    res.last = report ? *report : timedMeasure();
-    res.last.iteration = it;
-    res.last.dt = dt;
-    res.seconds.measure = measureSeconds;
-    s.finish(res);
-    return res;
+    return call.finish(converged, reason, it, dt, report);
   };
 
   for (std::int64_t it = 0;; ++it) {
@@ -204,18 +226,12 @@ FireResult descend(System& s, const FireSettings& fs, const std::function<void(c
     }
     const double fmax = std::sqrt(fmaxSq);
     if (fmax <= fs.forceTolerance * rule.knownScale || fmaxSq == 0.0 || it % kMeasureEvery == 0) {
-      const MinimiserReport now = timedMeasure();
+      const MinimiserReport now = call.measure();
       if (const char* why = rule.verdict(now, fmax, it)) return finish(true, why, it, &now);
     }
     if (it >= fs.maxIterations) return finish(false, "iteration budget", it, nullptr);
     if (stopOnInterrupt && s.interrupted()) return finish(false, "interrupted", it, nullptr);
-    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) {
-      MinimiserReport now = timedMeasure();
-      now.iteration = it;
-      now.dt = dt;
-      rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
-      progress(now);
-    }
+    if (progress && fs.progressInterval > 0 && it % fs.progressInterval == 0) call.report(progress, it, dt, rule, fs);
 
     if (power > 0.0) {
       ++downhill;
@@ -227,7 +243,7 @@ FireResult descend(System& s, const FireSettings& fs, const std::function<void(c
     } else {
       downhill = 0;
       ++uphill;
-      ++res.uphillSteps;
+      ++call.result.uphillSteps;
       if (uphill > fs.maxUphill) return finish(false, "uphill", it, nullptr);
       if (!(fs.initialDelay && it < fs.nDelay)) {
         if (dt * fs.fDec >= dtMin) dt *= fs.fDec;
@@ -263,29 +279,13 @@ FireResult descend(System& s, const FireSettings& fs, const std::function<void(c
 template <class System>
 FireResult descendByCg(System& s, const FireSettings& fs, const std::function<void(const MinimiserReport&)>& progress,
                        bool stopOnInterrupt) {
-  using Clock = std::chrono::steady_clock;
-  FireResult res;
-  double measureSeconds = 0.0;
-  auto timedMeasure = [&] {
-    const auto t0 = Clock::now();
-    MinimiserReport r = s.measure();
-    measureSeconds += std::chrono::duration<double>(Clock::now() - t0).count();
-    return r;
-  };
-  const MinimiserReport start = timedMeasure();
+  Descent<System> call(s);
+  const MinimiserReport start = call.measure();
   s.prepare(start);
   StopRule rule(fs, start, s.overlapFloor());
   double dt = 0.0;
   auto finish = [&](bool converged, const char* reason, std::int64_t it, const MinimiserReport* report) {
-    res.converged = converged;
-    res.stopReason = reason;
-    res.iterations = it;
-    res.last = report ? *report : timedMeasure();
-    res.last.iteration = it;
-    res.last.dt = dt;
-    res.seconds.measure = measureSeconds;
-    s.finish(res);
-    return res;
+    return call.finish(converged, reason, it, dt, report);
   };
   s.resetPrevious();
   double sOld = s.precondition()[0];  // F.M^-1 F at the last iteration
@@ -302,20 +302,16 @@ FireResult descendByCg(System& s, const FireSettings& fs, const std::function<vo
     const double fmax = std::sqrt(fmaxSq);
     // Every 128 iterations = 256 force evaluations, as FIRE measures.
     if (fmax <= fs.forceTolerance * rule.knownScale || fmaxSq == 0.0 || iteration % (kMeasureEvery / 2) == 0) {
-      const MinimiserReport now = timedMeasure();
+      const MinimiserReport now = call.measure();
       if (const char* why = rule.verdict(now, fmax, evaluations)) return finish(true, why, evaluations, &now);
     }
     if (evaluations >= fs.maxIterations) return finish(false, "iteration budget", evaluations, nullptr);
     if (stopOnInterrupt && s.interrupted()) return finish(false, "interrupted", evaluations, nullptr);
     if (progress && fs.progressInterval > 0 && iteration % ((fs.progressInterval + 1) / 2) == 0) {
-      MinimiserReport now = timedMeasure();
-      now.iteration = evaluations;
-      now.dt = dt;
-      rule.knownScale = std::max(now.meanContactForce, fs.referenceForce);
-      progress(now);
+      call.report(progress, evaluations, dt, rule, fs);
     }
     if (!(g0 > 0.0)) {  // not a descent direction: restart along M^-1 F
-      ++res.uphillSteps;
+      ++call.result.uphillSteps;
       g0 = sOld;
       s.restartDirection();
       dmaxSq = s.direct(0.0, false)[1];
@@ -338,6 +334,19 @@ FireResult descendByCg(System& s, const FireSettings& fs, const std::function<vo
     sOld = pre[0];
     dir = s.direct(beta, true);
   }
+}
+
+/// x_i += a d_i (a conjugate-gradient move): returns the squared displacement from `ref`.
+inline double moveParticle(Index i, double a, const double* __restrict d, double* __restrict x,
+                           const double* __restrict ref) {
+  double dsq = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const Index j = 3 * i + k;
+    x[j] += a * d[j];
+    const double dx = x[j] - ref[j];
+    dsq += dx * dx;
+  }
+  return dsq;
 }
 
 /// |a|^2 of a 3-vector, left to right (measure()'s max |F_i|^2 on every system).

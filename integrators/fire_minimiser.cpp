@@ -206,16 +206,7 @@ void FireMinimiser::moveAlong(const double* d, double a) {
   double* maxima = chunkMaxima_.data();
   forChunks(n, settings_.threads, [=](Index c, Index begin, Index end) {
     LargestTwo largest;
-    for (Index i = begin; i < end; ++i) {
-      double dsq = 0.0;
-      for (int k = 0; k < 3; ++k) {
-        const Index j = 3 * i + k;
-        x[j] += a * d[j];
-        const double dx = x[j] - ref[j];
-        dsq += dx * dx;
-      }
-      largest.add(dsq);
-    }
+    for (Index i = begin; i < end; ++i) largest.add(fire::moveParticle(i, a, d, x, ref));
     maxima[2 * c] = largest.first;
     maxima[2 * c + 1] = largest.second;
   });

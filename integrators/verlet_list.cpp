@@ -81,34 +81,38 @@ void VerletList::refine(const SphereView& spheres, const Box& box) {
   ++refines_;
 }
 
-void VerletList::cutFromOuter(const SphereView& spheres, const Box& box) {
+void cutList(const contact::ContactList& outer, const SphereView& spheres, const Box& box, double skin,
+             contact::ContactList& target) {
   const Index n = spheres.count();
-  // Rows keep the order of the outer rows (ascending j), so the list is the one build() would give.
-  list_.offset.resize(static_cast<std::size_t>(n) + 1);
-  list_.neighbour.resize(outer_.neighbour.size());  // buffers only grow
+  target.offset.resize(static_cast<std::size_t>(n) + 1);
+  target.neighbour.resize(outer.neighbour.size());  // buffers only grow
   Index k = 0;
-  list_.offset[0] = 0;
+  target.offset[0] = 0;
   for (Index i = 0; i < n; ++i) {
-    for (Index c = outer_.offset[i]; c < outer_.offset[i + 1]; ++c) {
+    for (Index c = outer.offset[i]; c < outer.offset[i + 1]; ++c) {
       // Written always, kept by advancing k: about half the outer candidates are within the skin, at random,
       // so a branch here mispredicts once per two candidates.
-      const Index j = outer_.neighbour[c];
-      list_.neighbour[static_cast<std::size_t>(k)] = j;
-      k += static_cast<Index>(broadphase::withinReach(spheres, box, i, j, skin_));
+      const Index j = outer.neighbour[c];
+      target.neighbour[static_cast<std::size_t>(k)] = j;
+      k += static_cast<Index>(broadphase::withinReach(spheres, box, i, j, skin));
     }
-    list_.offset[static_cast<std::size_t>(i) + 1] = k;
+    target.offset[static_cast<std::size_t>(i) + 1] = k;
   }
-  list_.neighbour.resize(static_cast<std::size_t>(k));
-  list_.wallParticle.clear();
-  list_.wallFace.clear();
-  for (std::size_t c = 0; c < outer_.wallParticle.size(); ++c) {
-    const Index i = outer_.wallParticle[c];
-    const int face = outer_.wallFace[c];
-    if (wallGap(box, face, spheres.centre(face / 2, i), spheres.radius[i]) <= skin_) {
-      list_.wallParticle.push_back(i);
-      list_.wallFace.push_back(static_cast<std::int8_t>(face));
+  target.neighbour.resize(static_cast<std::size_t>(k));
+  target.wallParticle.clear();
+  target.wallFace.clear();
+  for (std::size_t c = 0; c < outer.wallParticle.size(); ++c) {
+    const Index i = outer.wallParticle[c];
+    const int face = outer.wallFace[c];
+    if (wallGap(box, face, spheres.centre(face / 2, i), spheres.radius[i]) <= skin) {
+      target.wallParticle.push_back(i);
+      target.wallFace.push_back(static_cast<std::int8_t>(face));
     }
   }
+}
+
+void VerletList::cutFromOuter(const SphereView& spheres, const Box& box) {
+  cutList(outer_, spheres, box, skin_, list_);
   finish(spheres);
 }
 

@@ -25,6 +25,12 @@
 
 namespace polydem::integrators {
 
+/// The rows of `outer` cut to the pairs within `skin` (the one pair predicate, broadphase::withinReach) and its
+/// wall candidates to those within `skin` of their face, into `target`: rows keep the outer rows' order, so the
+/// list is the one a build with `skin` would give. VerletList::refine() and the minimiser on MPI ranks.
+void cutList(const contact::ContactList& outer, const SphereView& spheres, const Box& box, double skin,
+             contact::ContactList& target);
+
 // Two levels (setOuterSkin): build() asks the backend for the pairs within an outer skin S > skin and keeps
 // them; refine() cuts the list to the skin from those candidates alone (O(P_S), no broad phase), which gives
 // exactly the list build() would give while no pair has closed more than S - skin since the last build():

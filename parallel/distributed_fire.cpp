@@ -15,6 +15,7 @@
 #include "broadphase/broad_phase.hpp"
 #include "core/errors.hpp"
 #include "core/interrupt.hpp"
+#include "integrators/verlet_list.hpp"
 #include "parallel/mpi_util.hpp"
 
 namespace polydem::parallel {
@@ -55,10 +56,6 @@ integrators::DemSettings settingsOf(const integrators::FireMinimiser& m) {
   return s;
 }
 
-double wallGap(const Box& box, int face, double x, double r) {  // as integrators/verlet_list.cpp
-  return (face % 2 == 0 ? x : box.length(face / 2) - x) - r;
-}
-
 }  // namespace
 
 DistributedFire::DistributedFire(const integrators::FireMinimiser& m, DecompositionKind kind)
@@ -85,32 +82,8 @@ DistributedFire::DistributedFire(const integrators::FireMinimiser& m, Decomposit
 void DistributedFire::cut() {
   // VerletList::cutFromOuter() on the local rows: the rows keep the candidates' order.
   const contact::ContactList& outer = dem_.list_;
-  const Index n = dem_.n_;
   const SphereView spheres{dem_.x_, dem_.r_};
-  const Box& box = dem_.box_;
-  inner_.offset.resize(static_cast<std::size_t>(n) + 1);
-  inner_.neighbour.resize(outer.neighbour.size());
-  Index k = 0;
-  inner_.offset[0] = 0;
-  for (Index i = 0; i < n; ++i) {
-    for (Index c = outer.offset[i]; c < outer.offset[i + 1]; ++c) {
-      const Index j = outer.neighbour[c];
-      inner_.neighbour[static_cast<std::size_t>(k)] = j;
-      k += static_cast<Index>(broadphase::withinReach(spheres, box, i, j, skin_));
-    }
-    inner_.offset[static_cast<std::size_t>(i) + 1] = k;
-  }
-  inner_.neighbour.resize(static_cast<std::size_t>(k));
-  inner_.wallParticle.clear();
-  inner_.wallFace.clear();
-  for (std::size_t c = 0; c < outer.wallParticle.size(); ++c) {
-    const Index i = outer.wallParticle[c];
-    const int face = outer.wallFace[c];
-    if (wallGap(box, face, dem_.x_(face / 2, i), dem_.r_[i]) <= skin_) {
-      inner_.wallParticle.push_back(i);
-      inner_.wallFace.push_back(static_cast<std::int8_t>(face));
-    }
-  }
+  integrators::cutList(outer, spheres, dem_.box_, skin_, inner_);
   if (settings_.threads > 1) {
     inner_.buildBlocks(settings_.threads);
     crossScratch_.resize(contact::crossScratchSize(inner_.crossCount(), false));
@@ -444,16 +417,7 @@ void DistributedFire::moveAlong(double a) {
   const double* d = dem_.v_.data();
   const double* ref = innerReference_.data();
   integrators::fire::LargestTwo largest;
-  for (const Index i : dem_.ownedSlots_) {
-    double dsq = 0.0;
-    for (int k = 0; k < 3; ++k) {
-      const Index j = 3 * i + k;
-      x[j] += a * d[j];
-      const double dx = x[j] - ref[j];
-      dsq += dx * dx;
-    }
-    largest.add(dsq);
-  }
+  for (const Index i : dem_.ownedSlots_) largest.add(integrators::fire::moveParticle(i, a, d, x, ref));
   dem_.stats_.loopSeconds += MPI_Wtime() - t0;
   afterMove(largest);
 }
