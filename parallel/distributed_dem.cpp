@@ -473,16 +473,21 @@ void DistributedDem::buildList(const Eigen::Matrix3Xd& centres, const Eigen::Vec
   }
   if (&centres != &ref_) ref_ = centres;
   if (&radii != &refR_) refR_ = radii;
-  pairKeys_.resize(list_.neighbour.size());
-  for (Index i = 0; i < n_; ++i) {
-    for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
-      pairKeys_[static_cast<std::size_t>(c)] =
-          contact::pairKey(id_[static_cast<std::size_t>(i)], id_[static_cast<std::size_t>(list_.neighbour[c])]);
+  // The springs' keys, for kernels that keep springs (every use is under historyWidth > 0).
+  pairKeys_.clear();
+  wallKeys_.clear();
+  if (kernel_.historyWidth > 0) {
+    pairKeys_.resize(list_.neighbour.size());
+    for (Index i = 0; i < n_; ++i) {
+      for (Index c = list_.offset[i]; c < list_.offset[i + 1]; ++c) {
+        pairKeys_[static_cast<std::size_t>(c)] =
+            contact::pairKey(id_[static_cast<std::size_t>(i)], id_[static_cast<std::size_t>(list_.neighbour[c])]);
+      }
     }
-  }
-  wallKeys_.resize(list_.wallParticle.size());
-  for (std::size_t c = 0; c < wallKeys_.size(); ++c) {
-    wallKeys_[c] = contact::wallKey(id_[static_cast<std::size_t>(list_.wallParticle[c])], list_.wallFace[c]);
+    wallKeys_.resize(list_.wallParticle.size());
+    for (std::size_t c = 0; c < wallKeys_.size(); ++c) {
+      wallKeys_[c] = contact::wallKey(id_[static_cast<std::size_t>(list_.wallParticle[c])], list_.wallFace[c]);
+    }
   }
   stats_.pairs = static_cast<double>(list_.pairCount());
 }
