@@ -46,7 +46,7 @@ class KeyedChunks {
     double* s = send_.data();
     for (const std::vector<Index>& slots : sendSlots_) {
       for (const Index i : slots) {
-        *s++ = static_cast<double>(key_->at(static_cast<std::size_t>(i)));
+        *s++ = static_cast<double>((*key_)[static_cast<std::size_t>(i)]);
         pack(i, s);
         s += packWidth;
       }
@@ -59,7 +59,7 @@ class KeyedChunks {
       return staging_.data() + (l.offset + key - l.first) * packWidth;
     };
     for (const Led& l : led_) {
-      for (const Index i : l.mine) pack(i, place(key_->at(static_cast<std::size_t>(i))));
+      for (const Index i : l.mine) pack(i, place((*key_)[static_cast<std::size_t>(i)]));
     }
     for (std::size_t k = 0; k < recvTotal_; ++k) {
       const double* rec = recv_.data() + k * record;

@@ -5,11 +5,7 @@
 # (docs/parallel.md). With NP > 1 the report must show the parallel run, and particles must have migrated.
 set -u
 polydem="$1"; mpiexec="$2"; work="$3"; scene="$4"; np="$5"; shift 5
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
-export OMPI_MCA_btl_vader_single_copy_mechanism=none  # containers often forbid the cross-memory attach
-export OMPI_MCA_mpi_yield_when_idle=1 OMP_WAIT_POLICY=PASSIVE  # more ranks (and threads) than cores: waiting ones yield
-# Sanitizer builds: what OpenMPI keeps allocated at MPI_Finalize is not ours (AddressSanitizer errors still fail).
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+source "$(dirname "$0")/mpi_env.sh"
 name="${scene%.toml}"
 tag=$(printf '%s' "$*" | tr -cs 'A-Za-z0-9' '_')  # runs of one scene with other options get their own folder
 dir="$work/$name/$np$tag"

@@ -6,10 +6,7 @@
 # the report must show the ranks, and particles must have migrated between them.
 set -u
 polydem="$1"; mpiexec="$2"; work="$3"; scene="$4"; np="$5"; shift 5
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
-export OMPI_MCA_btl_vader_single_copy_mechanism=none  # containers often forbid the cross-memory attach
-export OMPI_MCA_mpi_yield_when_idle=1 OMP_WAIT_POLICY=PASSIVE  # more ranks (and threads) than cores: waiting ones yield
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+source "$(dirname "$0")/mpi_env.sh"
 name="${scene%.toml}"
 tag=$(printf '%s' "$*" | tr -cs 'A-Za-z0-9' '_')
 # The serial reference of these options: the same options but --threads (threads change no bit).

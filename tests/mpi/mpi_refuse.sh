@@ -3,11 +3,7 @@
 # code 2 and a message naming it, before anything runs (never run silently wrong).
 set -u
 polydem="$1"; mpiexec="$2"; work="$3"
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
-export OMPI_MCA_btl_vader_single_copy_mechanism=none  # containers often forbid the cross-memory attach
-export OMPI_MCA_mpi_yield_when_idle=1 OMP_WAIT_POLICY=PASSIVE  # more ranks (and threads) than cores: waiting ones yield
-# Sanitizer builds: what OpenMPI keeps allocated at MPI_Finalize is not ours (AddressSanitizer errors still fail).
-export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+source "$(dirname "$0")/mpi_env.sh"
 dir="$work/refuse"; rm -rf "$dir"; mkdir -p "$dir"; cd "$dir" || exit 1
 cp "$work/mpi_walls.toml" scene.toml
 fail() { echo "FAIL: $*"; exit 1; }
