@@ -288,15 +288,21 @@ bool DistributedDem::needsGhost(const double* x, double r, int q) const {
 }
 
 namespace {
-constexpr int kReachCells = 32;  // per axis
-}
+// The reach grid has at most kReachCells cells per axis, and no fewer than kReachBallCells cells across the
+// largest ball (largest radius + skin + largest radius): the field's cost is the cells inside every boundary
+// particle's ball, which on a fixed 32^3 grid of a small box with large particles was thousands of cells per
+// particle at every build. Coarser cells give a smaller (still exact) lower bound, so only more ghosts.
+constexpr int kReachCells = 32;
+constexpr double kReachBallCells = 4.0;
+}  // namespace
 
 int DistributedDem::reachCell(const double* x) const {
   int index = 0;
   for (int k = 2; k >= 0; --k) {
-    const double u = std::floor(x[k] / box_.length(k) * kReachCells);
-    const int c = std::isfinite(u) ? static_cast<int>(std::clamp(u, 0.0, kReachCells - 1.0)) : 0;
-    index = index * kReachCells + c;
+    const int G = reachCells_[k];
+    const double u = std::floor(x[k] / box_.length(k) * G);
+    const int c = std::isfinite(u) ? static_cast<int>(std::clamp(u, 0.0, G - 1.0)) : 0;
+    index = index * G + c;
   }
   return index;
 }
@@ -310,13 +316,18 @@ double DistributedDem::reachAt(int q, const double* x) const {
 }
 
 void DistributedDem::exchangeReach(const std::vector<double>& centres, const std::vector<double>& radii) {
-  constexpr int G = kReachCells;
   double rmaxAll = 0.0;
   for (const double r : rmax_) rmaxAll = std::max(rmaxAll, r);
   const Region& mine = grid_.region(rank_);
   double cellSize[3];
-  for (int k = 0; k < 3; ++k) cellSize[k] = box_.length(k) / G;
-  std::vector<double> field(static_cast<std::size_t>(G) * G * G, -std::numeric_limits<double>::infinity());
+  const double largestBall = 2.0 * rmaxAll + skin_;  // the same on every rank: rmax_ is gathered, skin_ shared
+  for (int k = 0; k < 3; ++k) {
+    const double cells = std::floor(kReachBallCells * box_.length(k) / largestBall);
+    reachCells_[k] = std::isfinite(cells) ? static_cast<int>(std::clamp(cells, 1.0, double(kReachCells))) : kReachCells;
+    cellSize[k] = box_.length(k) / reachCells_[k];
+  }
+  std::vector<double> field(static_cast<std::size_t>(reachCells_[0]) * reachCells_[1] * reachCells_[2],
+                            -std::numeric_limits<double>::infinity());
   std::vector<int> index[3];
   std::vector<double> distance[3];
   for (std::size_t i = 0; i < radii.size(); ++i) {
@@ -335,6 +346,7 @@ void DistributedDem::exchangeReach(const std::vector<double>& centres, const std
     }
     if (depth > ball) continue;
     for (int k = 0; k < 3; ++k) {
+      const int G = reachCells_[k];
       index[k].clear();
       distance[k].clear();
       const long first = static_cast<long>(std::floor((x[k] - ball) / cellSize[k]));
@@ -361,7 +373,8 @@ void DistributedDem::exchangeReach(const std::vector<double>& centres, const std
           if (dsq > ball * ball) continue;
           // Rounded down (a lower bound of the distance): the field is never below the exact value.
           const double value = radii[i] + skin_ - std::sqrt(dsq) * (1.0 - 1e-12);
-          double& f = field[static_cast<std::size_t>((index[2][a] * G + index[1][b]) * G + index[0][c])];
+          double& f = field[static_cast<std::size_t>((index[2][a] * reachCells_[1] + index[1][b]) * reachCells_[0] +
+                                                     index[0][c])];
           f = std::max(f, value);
         }
       }

@@ -18,14 +18,14 @@
 // Ghosts are sized by particle: j (owned by another rank) is a ghost of rank q only if some particle i of q
 // can be within the skin of it, |x_i - x_j| <= r_i + r_j + skin. Two necessary conditions are tested, both
 // exact bounds: (1) the distance from x_j to q's region is at most r_j + r_max(q) + skin, r_max(q) the largest
-// radius owned by q; (2) the reach field of q at x_j's cell is at least -r_j, where the field, on a 32^3 grid of
-// the box, is R(c) = max over q's particles i of (r_i + skin - dist(x_i, cell c)) (a lower bound of
-// |x_i - x_j| for every x_j in c). (2) is what keeps a small particle off a rank whose large particles are
-// nowhere near it; (1) alone would copy a shell of the largest radius's thickness around every region. At each
-// neighbour-list build (the same steps as the serial run: max displacement > skin/2) particles are wrapped, migrate to
-// the rank whose brick holds them, carrying velocity, rotation and the contact springs of their pairs and walls, and
-// ghosts are chosen again. The serial run's re-sorts (DemSettings::resort: at fixed steps, when the storage order
-// has decayed) change the slots, so the keys: the decay is measured on the global key order (integer sums over
+// radius owned by q; (2) the reach field of q at x_j's cell is at least -r_j, where the field, on a grid of the box
+// (up to 32^3, at least 4 cells across the largest ball), is R(c) = max over q's particles i of (r_i + skin - dist(x_i,
+// cell c)) (a lower bound of |x_i - x_j| for every x_j in c). (2) is what keeps a small particle off a rank whose large
+// particles are nowhere near it; (1) alone would copy a shell of the largest radius's thickness around every region. At
+// each neighbour-list build (the same steps as the serial run: max displacement > skin/2) particles are wrapped,
+// migrate to the rank whose brick holds them, carrying velocity, rotation and the contact springs of their pairs and
+// walls, and ghosts are chosen again. The serial run's re-sorts (DemSettings::resort: at fixed steps, when the storage
+// order has decayed) change the slots, so the keys: the decay is measured on the global key order (integer sums over
 // the ranks) at the same steps, and a re-sort gives every particle its new serial slot as key, from the serial
 // Morton order of all centres, before a build.
 //
@@ -171,6 +171,7 @@ class DistributedDem {
   bool carryForces_ = false;     ///< a build between steps (growRadii()): records carry the forces and torques
   std::vector<double> rmax_;     ///< largest owned radius per rank (-1: owns nothing)
   std::vector<std::vector<std::pair<std::int32_t, double>>> reach_;  ///< per rank: (cell, R) by cell
+  int reachCells_[3] = {1, 1, 1};  ///< the reach grid's cells per axis (exchangeReach)
 
   // local particles, owned and ghosts, ascending key (= serial slot)
   Index n_ = 0;

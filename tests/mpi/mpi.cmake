@@ -196,21 +196,41 @@ foreach(scene min_jam min_walls)
     set_tests_properties(mpi_${scene}_np${np} PROPERTIES FIXTURES_REQUIRED mpi_${scene} TIMEOUT 180 LABELS "${_labels}")
   endforeach()
 endforeach()
-# Conjugate gradients on ranks: the same protocol with --method cg.
-add_test(NAME mpi_min_jam_cg_serial
+# Conjugate gradients on ranks: one minimisation of an over-compressed packing (phi 0.8, uniform-volume, size
+# ratio 10; about 4,000 evaluations), on 2 ranks in every build and on 3 in the full one; and the pressure
+# protocol of mpi_min_jam with --method cg (11 minimisations, about 75,000 evaluations, tens of seconds on 2
+# ranks even in Release: the full build only).
+file(WRITE ${POLYDEM_MPI_WORK}/mpi_min_cg.toml "[minimise]
+dist = \"uniform-volume\"
+omega = 10.0
+count = 1500
+phi0 = 0.8
+seed = 2
+method = \"cg\"
+progress = 0.0
+")
+add_test(NAME mpi_min_cg_serial
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
-                 ${POLYDEM_MPI_WORK} mpi_min_jam.toml serial --method cg)
-set_tests_properties(mpi_min_jam_cg_serial PROPERTIES FIXTURES_SETUP mpi_min_jam_cg TIMEOUT 120 LABELS mpi)
+                 ${POLYDEM_MPI_WORK} mpi_min_cg.toml serial)
+set_tests_properties(mpi_min_cg_serial PROPERTIES FIXTURES_SETUP mpi_min_cg TIMEOUT 120 LABELS mpi)
 foreach(np 2 3)
-  add_test(NAME mpi_min_jam_cg_np${np}
+  add_test(NAME mpi_min_cg_np${np}
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
-                   ${POLYDEM_MPI_WORK} mpi_min_jam.toml ${np} --method cg)
+                   ${POLYDEM_MPI_WORK} mpi_min_cg.toml ${np})
   set(_labels "mpi;slow")
   if(np EQUAL 2)
     set(_labels mpi)
   endif()
-  set_tests_properties(mpi_min_jam_cg_np${np} PROPERTIES FIXTURES_REQUIRED mpi_min_jam_cg TIMEOUT 180 LABELS "${_labels}")
+  set_tests_properties(mpi_min_cg_np${np} PROPERTIES FIXTURES_REQUIRED mpi_min_cg TIMEOUT 180 LABELS "${_labels}")
 endforeach()
+add_test(NAME mpi_min_jam_cg_serial
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} mpi_min_jam.toml serial --method cg)
+set_tests_properties(mpi_min_jam_cg_serial PROPERTIES FIXTURES_SETUP mpi_min_jam_cg TIMEOUT 120 LABELS "mpi;slow")
+add_test(NAME mpi_min_jam_cg_np2
+         COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
+                 ${POLYDEM_MPI_WORK} mpi_min_jam.toml 2 --method cg)
+set_tests_properties(mpi_min_jam_cg_np2 PROPERTIES FIXTURES_REQUIRED mpi_min_jam_cg TIMEOUT 300 LABELS "mpi;slow")
 if(POLYDEM_WITH_OPENMP)
   add_test(NAME mpi_min_walls_np2_threads2
            COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/mpi/mpi_minimise.sh $<TARGET_FILE:polydem> ${_polydem_mpi}
