@@ -16,11 +16,22 @@ void KeyedChunks::setup(const std::vector<Index>& key, const std::vector<Index>&
   const auto C = static_cast<std::size_t>(chunks_);
   std::vector<Index> mine(C, 0);
   for (const Index i : ownedSlots) ++mine[static_cast<std::size_t>(key[static_cast<std::size_t>(i)] / chunk)];
-  // The leader of a chunk: its lowest owner.
-  std::vector<int> leader(C);
-  for (std::size_t c = 0; c < C; ++c) leader[c] = mine[c] > 0 ? rank : size;
-  mpiCheck(MPI_Allreduce(MPI_IN_PLACE, leader.data(), toInt(C, "chunks"), MPI_INT, MPI_MIN, MPI_COMM_WORLD),
-           "MPI_Allreduce");
+  // The leader of a chunk: the owner of most of its particles (the lowest such rank), so the fewest values
+  // travel and split chunks spread over the ranks that hold them.
+  std::vector<double> owned(C * static_cast<std::size_t>(size));
+  {
+    std::vector<double> count(mine.begin(), mine.end());
+    mpiCheck(MPI_Allgather(count.data(), toInt(C, "chunks"), MPI_DOUBLE, owned.data(), toInt(C, "chunks"), MPI_DOUBLE,
+                           MPI_COMM_WORLD),
+             "MPI_Allgather");
+  }
+  std::vector<int> leader(C, 0);
+  for (std::size_t c = 0; c < C; ++c) {
+    for (int q = 1; q < size; ++q) {
+      if (owned[static_cast<std::size_t>(q) * C + c] > owned[static_cast<std::size_t>(leader[c]) * C + c])
+        leader[c] = q;
+    }
+  }
 
   whole_.clear();
   led_.clear();
@@ -62,6 +73,25 @@ void KeyedChunks::setup(const std::vector<Index>& key, const std::vector<Index>&
   mpiCheck(MPI_Alltoall(sendCount_.data(), 1, MPI_INT, recvCount_.data(), 1, MPI_INT, MPI_COMM_WORLD), "MPI_Alltoall");
   recvTotal_ = 0;
   for (const int n : recvCount_) recvTotal_ += static_cast<std::size_t>(n);
+
+  // The keys travel once here; each reduction sends values only, in the same order, and every value's place
+  // in the staging buffer (the leader's particles of a chunk in key order) is known from now on.
+  auto place = [&](Index k) {
+    const Led& l = led_[static_cast<std::size_t>(ledOf_[static_cast<std::size_t>(k / chunk_)])];
+    return l.offset + k - l.first;
+  };
+  send_.clear();
+  for (const std::vector<Index>& slots : sendSlots_) {
+    for (const Index i : slots) send_.push_back(static_cast<double>(key[static_cast<std::size_t>(i)]));
+  }
+  double ignored = 0.0;
+  exchange(1, &ignored);
+  recvPlace_.resize(recvTotal_);
+  for (std::size_t k = 0; k < recvTotal_; ++k) recvPlace_[k] = place(static_cast<Index>(recv_[k]));
+  minePlace_.clear();
+  for (const Led& l : led_) {
+    for (const Index i : l.mine) minePlace_.push_back(place(key[static_cast<std::size_t>(i)]));
+  }
 }
 
 void KeyedChunks::exchange(std::size_t record, double* commSeconds) {

@@ -6,9 +6,9 @@
 // distributed run keys its particles by serial slot, so a chunk is a range of keys, and:
 //   - a chunk whose particles one rank owns all of ("whole") is summed by that rank from its local arrays,
 //     where the chunk is a contiguous run of local slots (no ghost can carry a key of it);
-//   - a chunk split over several ranks is summed by its "leader" (the lowest of its owners): the other owners
-//     send it their particles' values (key and a few doubles each), the leader puts them in key order and
-//     runs the same chunk function;
+//   - a chunk split over several ranks is summed by its "leader" (the owner of most of its particles, the
+//     lowest rank among equals): the other owners send it their particles' values (a few doubles each; the
+//     keys travel once per setup()), the leader puts them in key order and runs the same chunk function;
 //   - every chunk's result, zero on the ranks that did not compute it, is summed over the ranks in one
 //     MPI_Allreduce: x + 0 + ... + 0 = x exactly, whatever order MPI adds in. Each rank then adds the chunks in
 //     chunk order, as the serial code does.
@@ -41,29 +41,26 @@ class KeyedChunks {
     result_.assign(static_cast<std::size_t>(chunks_) * static_cast<std::size_t>(width) + extra.size(), 0.0);
     double* out = result_.data();
     for (const Run& r : whole_) whole(r.chunk, r.begin, r.end, out + r.chunk * width);
-    const auto record = static_cast<std::size_t>(packWidth) + 1;
+    const auto record = static_cast<std::size_t>(packWidth);
     send_.resize(sendTotal_ * record);
     double* s = send_.data();
     for (const std::vector<Index>& slots : sendSlots_) {
       for (const Index i : slots) {
-        *s++ = static_cast<double>((*key_)[static_cast<std::size_t>(i)]);
         pack(i, s);
         s += packWidth;
       }
     }
     exchange(record, commSeconds);
-    // Each led chunk's particles into its run of the staging buffer, by key; then the chunk function.
-    staging_.resize(static_cast<std::size_t>(ledParticles_) * static_cast<std::size_t>(packWidth));
-    auto place = [&](Index key) {
-      const Led& l = led_[static_cast<std::size_t>(ledOf_[static_cast<std::size_t>(key / chunk_)])];
-      return staging_.data() + (l.offset + key - l.first) * packWidth;
-    };
+    // Each led chunk's particles into its run of the staging buffer, in key order (places from setup()).
+    staging_.resize(static_cast<std::size_t>(ledParticles_) * record);
+    double* staged = staging_.data();
+    std::size_t m = 0;
     for (const Led& l : led_) {
-      for (const Index i : l.mine) pack(i, place((*key_)[static_cast<std::size_t>(i)]));
+      for (const Index i : l.mine) pack(i, staged + static_cast<std::size_t>(minePlace_[m++]) * record);
     }
     for (std::size_t k = 0; k < recvTotal_; ++k) {
       const double* rec = recv_.data() + k * record;
-      std::copy(rec + 1, rec + record, place(static_cast<Index>(rec[0])));
+      std::copy(rec, rec + record, staged + static_cast<std::size_t>(recvPlace_[k]) * record);
     }
     for (const Led& l : led_) fold(l.chunk, l.count, staging_.data() + l.offset * packWidth, out + l.chunk * width);
     std::copy(extra.begin(), extra.end(), result_.end() - static_cast<std::ptrdiff_t>(extra.size()));
@@ -91,7 +88,8 @@ class KeyedChunks {
   std::vector<int> sendCount_, recvCount_;  ///< particles per rank
   std::size_t recvTotal_ = 0;
   Index chunk_ = 1, ledParticles_ = 0;
-  std::vector<Index> ledOf_;  ///< per chunk: its index in led_, or -1
+  std::vector<Index> ledOf_;                  ///< per chunk: its index in led_, or -1
+  std::vector<Index> recvPlace_, minePlace_;  ///< staging place of each received value, of each own led particle
   std::vector<int> counts_, displs_, rcounts_, rdispls_;
   std::vector<double> send_, recv_, staging_, result_;
 };
