@@ -1,5 +1,7 @@
 #include "integrators/fire_descent.hpp"
 
+#include <fmt/format.h>
+
 #include "core/types.hpp"
 
 namespace polydem::integrators::fire {
@@ -174,6 +176,27 @@ MinimiserReport assembleReport(const ContactTally& tally, const MeasureSums& sum
   rep.residual = scale > 0.0 ? rep.maxForce / scale : 0.0;
   rep.packingFraction = 4.0 / 3.0 * kPi * sums.volume / box.volume();
   return rep;
+}
+
+std::string leftWallMessage(Index id, double radius, int axis, double x, double length, double force) {
+  const bool low = x < 0.0;
+  const double beyond = low ? -x : x - length;
+  const std::string wall =
+      fmt::format("{}{} wall ({} = {:g})", low ? "-" : "+", "xyz"[axis], "xyz"[axis], low ? 0.0 : length);
+  if (low ? force < 0.0 : force > 0.0) {
+    return fmt::format(
+        "minimiser: particle id {} (r = {:g}) was pressed through the {} by its contacts: the net force on it "
+        "pointed out of the box before the step, and its centre is now {:g} beyond the wall (the soft wall cannot "
+        "hold it; a smaller step need not help). The start is denser than the walls hold: start from a lower "
+        "--phi0 and raise phi with --delta-phi or --target-pressure, or use periodic boundaries",
+        id, radius, wall, beyond);
+  }
+  return fmt::format(
+      "minimiser: particle id {} (r = {:g}) was carried through the {} by its velocity: the net force on it "
+      "pointed into the box before the step, yet its centre is now {:g} beyond the wall (FIRE's inertia: a start "
+      "with large overlaps releases more energy than the soft wall holds). Lower --dt-max-factor (1: no step "
+      "growth) or --dt, or start from a lower --phi0 and raise phi with --delta-phi or --target-pressure",
+      id, radius, wall, beyond);
 }
 
 }  // namespace polydem::integrators::fire

@@ -22,6 +22,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <string>
 
 #include "contact/force_loop.hpp"
 #include "core/box.hpp"
@@ -118,6 +119,13 @@ std::array<double, 3> directChunk(Index begin, Index end, const double* f, doubl
 double alongChunk(Index begin, Index end, const double* f, const double* d);
 /// s = M^-1 F into `previous`: {F.s, F.(s - previous)}.
 std::array<double, 2> preconditionChunk(Index begin, Index end, const double* f, const double* im, double* previous);
+
+/// The message for a centre found outside a walled box at a list build: particle `id` of radius `radius`, its
+/// coordinate `x` along `axis` in a box of `length`, and the net force on it along `axis` at its last
+/// position (before the step that carried it out). That force names the cause: pointing out of the box, the
+/// particle's contacts press it through the soft wall (a start denser than the walls hold: a random start with
+/// large overlaps at a wall); pointing in, FIRE's inertia carried it through (a smaller dt_max helps).
+std::string leftWallMessage(Index id, double radius, int axis, double x, double length, double force);
 
 /// The stopping rule after a measurement at force evaluation `it` (every method): the reason to stop, or
 /// nullptr (fire_minimiser.hpp: converged, no contacts, overlaps at round-off, round-off floor).

@@ -277,10 +277,8 @@ void FireMinimiser::broadPhaseBuild() {
           if (xk >= L) xk = 0.0;
         }
       } else if (xk < 0.0 || xk > L) {
-        throw SimulationError(fmt::format(
-            "minimiser: particle id {} left the walled box along {} (a step too large for the wall stiffness: "
-            "reduce minimise.dt)",
-            particles_.id()[static_cast<std::size_t>(i)], "xyz"[k]));
+        throw SimulationError(fire::leftWallMessage(particles_.id()[static_cast<std::size_t>(i)],
+                                                    particles_.radius()[i], k, xk, L, particles_.force()(k, i)));
       }
     }
   }

@@ -166,8 +166,10 @@ void DistributedFire::rebuild() {
 
 void DistributedFire::checkCentres() {
   // FireMinimiser::broadPhaseBuild()'s faults, the first in slot order then axis order (where the serial loop
-  // throws), found over the ranks: (key, axis, kind, id) of each rank's first, the smallest wins.
-  double first[4] = {std::numeric_limits<double>::infinity(), 0.0, 0.0, 0.0};
+  // throws), found over the ranks: (key, axis, kind, id, coordinate, radius, force along the axis) of each
+  // rank's first, the smallest key wins.
+  constexpr int W = 7;
+  double first[W] = {std::numeric_limits<double>::infinity(), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
   for (const Index i : dem_.ownedSlots_) {
     for (int k = 0; k < 3 && !std::isfinite(first[0]); ++k) {
       const double xk = dem_.x_(k, i);
@@ -178,27 +180,29 @@ void DistributedFire::checkCentres() {
         first[1] = k;
         first[2] = nonFinite ? 1.0 : 0.0;
         first[3] = static_cast<double>(dem_.id_[static_cast<std::size_t>(i)]);
+        first[4] = xk;
+        first[5] = dem_.r_[i];
+        first[6] = dem_.f_(k, i);
       }
     }
     if (std::isfinite(first[0])) break;  // owned slots ascend by key: the first fault of this rank
   }
-  gathered_.resize(4 * static_cast<std::size_t>(dem_.size_));
+  gathered_.resize(W * static_cast<std::size_t>(dem_.size_));
   {
     CommTimer timer(dem_.stats_.commSeconds);
-    mpiCheck(MPI_Allgather(first, 4, MPI_DOUBLE, gathered_.data(), 4, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
+    mpiCheck(MPI_Allgather(first, W, MPI_DOUBLE, gathered_.data(), W, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
   }
   const double* worst = gathered_.data();
-  for (std::size_t q = 4; q < gathered_.size(); q += 4) {
+  for (std::size_t q = W; q < gathered_.size(); q += W) {
     if (gathered_[q] < worst[0]) worst = gathered_.data() + q;
   }
   if (!std::isfinite(worst[0])) return;
   const auto id = static_cast<Index>(worst[3]);
   if (worst[2] != 0.0)
     throw CollectiveError(fmt::format("minimiser: particle id {} reached a non-finite position", id));
-  throw CollectiveError(fmt::format(
-      "minimiser: particle id {} left the walled box along {} (a step too large for the wall stiffness: reduce "
-      "minimise.dt)",
-      id, "xyz"[static_cast<int>(worst[1])]));
+  const int axis = static_cast<int>(worst[1]);
+  throw CollectiveError(
+      integrators::fire::leftWallMessage(id, worst[5], axis, worst[4], dem_.box_.length(axis), worst[6]));
 }
 
 // ---- fire::descend()'s system ------------------------------------------------------------------------------

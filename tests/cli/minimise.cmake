@@ -29,6 +29,12 @@ polydem_cli_test(NAME minimise_method_bad COMMAND minimise -n 20 --method lbfgs 
                  FAIL "FIRE steps" LABELS minimise)
 polydem_cli_test(NAME minimise_jam_soft_budget COMMAND minimise -n 128 --phi0 0.6 --target-pressure 1e-6 --max-steps 2
                  EXIT 4 PASS "step budget: 2 minimisations" LABELS minimise)
+# A dense random start in a walled box (size ratio 10): a small sphere is pressed through a wall by a large
+# one. The error says so and how to start instead (it said "reduce minimise.dt", which does not help here).
+polydem_cli_test(NAME minimise_walls_pressed_through COMMAND minimise --dist uv --omega 10 -n 500 --phi0 0.6
+                 --boundary walls --seed 1 --progress 0 EXIT 3
+                 PASS "particle id [0-9]+ .r = [0-9.]+. was pressed through the [+-][xyz] wall .* by its contacts"
+                 FAIL "carried through|minimise.dt" LABELS minimise)
 # Bad options: exit 2, the option named, nothing computed.
 polydem_cli_test(NAME minimise_pressure_one COMMAND minimise -n 20 --target-pressure 1 EXIT 2 PASS "--target-pressure"
                  FAIL "FIRE steps" LABELS minimise)

@@ -10,6 +10,7 @@
 
 #include "broadphase/registry.hpp"
 #include "core/errors.hpp"
+#include "integrators/fire_descent.hpp"
 #include "polydem/config.hpp"
 #include "tests/integrators/minimise_scenes.hpp"
 
@@ -265,3 +266,27 @@ TEST(FireMinimiser, RefusesFrictionAndDashpots) {
 
 }  // namespace
 }  // namespace polydem::integrators
+
+// A centre outside a walled box is named by its cause: the net force before the step pointing out of the box
+// (contacts press the particle through the soft wall) or into it (the step overshot).
+TEST(FireMinimiser, CentreOutsideAWallNamesItsCause) {
+  using polydem::integrators::fire::leftWallMessage;
+  const std::string pressedLow = leftWallMessage(7, 0.5, 1, -0.01, 20.0, -3.0);
+  EXPECT_NE(pressedLow.find("particle id 7 (r = 0.5) was pressed through the -y wall (y = 0) by its contacts"),
+            std::string::npos)
+      << pressedLow;
+  EXPECT_NE(pressedLow.find("start from a lower --phi0"), std::string::npos) << pressedLow;
+  const std::string pressedHigh = leftWallMessage(8, 1.0, 2, 20.25, 20.0, 2.0);
+  EXPECT_NE(pressedHigh.find("pressed through the +z wall (z = 20)"), std::string::npos) << pressedHigh;
+  EXPECT_NE(pressedHigh.find("0.25 beyond the wall"), std::string::npos) << pressedHigh;
+  const std::string overshotLow = leftWallMessage(9, 0.5, 0, -0.125, 20.0, 4.0);
+  EXPECT_NE(overshotLow.find("was carried through the -x wall (x = 0) by its velocity: the net force on it pointed "
+                             "into the box"),
+            std::string::npos)
+      << overshotLow;
+  EXPECT_NE(overshotLow.find("Lower --dt-max-factor"), std::string::npos) << overshotLow;
+  EXPECT_EQ(overshotLow.find("pressed"), std::string::npos) << overshotLow;
+  const std::string overshotHigh = leftWallMessage(9, 0.5, 0, 20.5, 20.0, -1.0);
+  EXPECT_NE(overshotHigh.find("carried through the +x wall (x = 20) by its velocity"), std::string::npos)
+      << overshotHigh;
+}
