@@ -8,8 +8,9 @@
 //
 // The threaded force loop also needs thread blocks, built by buildBlocks() after each rebuild: the rows
 // split into contiguous blocks of about equal work (one per thread), and the "cross" pairs whose j lies
-// in a later block than i. Each thread owns the forces of its block; a cross pair is computed once, by
-// the owner of j, before the owners of i read it back (contact/force_loop.hpp).
+// in a later block than i. Each thread owns the forces of its block; a cross pair is computed once, in a
+// pass shared by all threads, before the owner of j subtracts it and the owner of i reads it back
+// (contact/force_loop.hpp).
 #include <cstdint>
 #include <vector>
 

@@ -18,16 +18,18 @@
 //
 // Threads (ForceContext::threads > 1, OpenMP builds): the serial loop adds each pair's force to row i
 // and subtracts it from particle j at once, a scatter that threads cannot share without races, and
-// whose order fixes the rounding. The threaded loop keeps that order exactly ("owner computes"): the
+// whose order fixes the rounding. The threaded loop keeps that order exactly ("owner sums"): the
 // rows are cut into contiguous blocks of about equal work, one per thread, each owning the forces of its
 // particles (ContactList::buildBlocks). Pairs with both particles in one block are handled by its owner
-// as in the serial loop. The few "cross" pairs (j in a later block than i) go in a first pass, run by
-// the owner of j: body force, then the cross pairs into the block in ascending (i, j), the first terms of
-// the serial sum of F_j, storing F_c. After a barrier the owner of i runs its rows as the serial loop
-// does, reading F_c of the cross pairs back in place. Every force is thus summed in the serial order, and
-// any thread count gives results bit-identical to the serial loop; each pair is computed (and its
-// spring advanced) once; no atomics, no per-thread force arrays; the scratch is 3 doubles (6 with
-// friction) and a flag per cross pair, a few per cent of the pairs in Morton order. Rejected, after
+// as in the serial loop. The few "cross" pairs (j in a later block than i) are computed in a first pass,
+// shared evenly between the threads, each storing F_c. After a barrier the owner of each block sets its body
+// forces, subtracts the stored F_c of the cross pairs into the block in ascending (i, j), the first terms of
+// the serial sum of F_j, and runs its rows as the serial loop does, reading F_c of the cross pairs back in
+// place. Every force is thus summed in the serial order, and any thread count gives results bit-identical
+// to the serial loop; each pair is computed (and its spring advanced) once; no atomics, no per-thread force
+// arrays; the scratch is 3 doubles (9 with friction) and a flag per cross pair, a few per cent of the pairs
+// in Morton order. (Until session 26 the owner of j computed the cross pairs: with two blocks every cross
+// pair lies in the second, so one thread did them all while the other waited.) Rejected, after
 // measuring: per-thread force buffers reduced afterwards (not bit-identical, T x 3N traffic); storing
 // every pair force and gathering them through the transposed list (bit-identical too, but the gather's
 // scattered reads of a 3P-double array made a one-thread run cost about 1.5x the serial CPU time); atomics
@@ -127,8 +129,8 @@ struct ForceContext {
   Batching batching = Batching::Batched;
 };
 
-/// Doubles of ForceContext::crossScratch for `crossPairs` cross pairs: the force (and torque) on i.
-inline std::size_t crossScratchSize(std::size_t crossPairs, bool rotation) { return (rotation ? 6 : 3) * crossPairs; }
+/// Doubles of ForceContext::crossScratch for `crossPairs` cross pairs: the force on i (and the torques on i and j).
+inline std::size_t crossScratchSize(std::size_t crossPairs, bool rotation) { return (rotation ? 9 : 3) * crossPairs; }
 
 /// Overwrite force (and torque) with the total force on every particle. O(N + P + W); no allocation.
 template <class Law, KernelFlags kFlags>

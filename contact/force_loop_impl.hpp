@@ -338,23 +338,24 @@ struct PairKernel {
     }
   }
 
-  /// Candidates per batch of rowsFlat: its buffers (24 KiB) fit in the L1 data cache (32 KiB here).
+  /// Candidates per batch of rowsFlat: its buffers (23-25 KiB) fit in the L1 data cache (32 KiB here).
   static constexpr Index kBatchCandidates = 256;
 
   /// The same sums as rows(), in the same order, computed in three passes over batches of candidates
   /// taken flat across rows: (0) the row of each candidate of the batch, from the row starts; (1) the contact test of
-  /// every candidate, which keeps the touching ones (and the cross pairs) in a buffer without a branch; (2) the force
-  /// of every kept pair, independent of each other, so that their square roots and divisions overlap; (3) the sums in
-  /// the order of rows(): F_i over the row in candidate order, -F scattered to j. The contact test no longer decides a
-  /// branch (it mispredicted at a rate of the touching share), and a row without a touching pair costs nothing: the
-  /// one-pass loop adds +0.0 to its F_i, which changes no force (the forces start at +0.0 or a body force and only ever
-  /// get pair forces subtracted, so none is -0.0, the one value +0.0 would change).
+  /// every candidate, which keeps the touching ones (a cross pair: when its stored force says it touches) in a buffer;
+  /// (2) the force of every kept pair, independent of each other, so that their square roots and divisions overlap; (3)
+  /// the sums in the order of rows(): F_i over the row in candidate order, -F scattered to j. The contact test no
+  /// longer decides a branch (it mispredicted at a rate of the touching share), and a row without a touching pair costs
+  /// nothing: the one-pass loop adds +0.0 to its F_i, which changes no force (the forces start at +0.0 or a body force
+  /// and only ever get pair forces subtracted, so none is -0.0, the one value +0.0 would change).
   template <LookAhead kAhead, class Cross>
   [[gnu::noinline]] void rowsFlat(Index begin, Index end, Index ownedEnd, Cross cross) const {
     constexpr bool kCross = !std::is_same_v<Cross, NoCross>;
     const Index first = offset[begin], last = offset[end];
     [[maybe_unused]] const Index lastCandidate = last - 1;
-    alignas(64) Index keptC[kBatchCandidates];
+    // A cross pair's stored force (the pair touches) per kept entry; the cross pairs that do not touch are not kept.
+    alignas(64) const double* keptStored[kCross ? kBatchCandidates : 1];
     alignas(64) Index keptI[kBatchCandidates];
     alignas(64) Index keptJ[kBatchCandidates];
     alignas(64) double keep0[kBatchCandidates];  // separation d = x_i - x_j, then the force on i
@@ -390,18 +391,29 @@ struct PairKernel {
         double d0, d1, d2;
         const double rsq = separation(a, j, d0, d1, d2);
         const double sumR = a.r + r[j];
-        if constexpr (kCross) keptC[kept] = c;
         keptI[kept] = i;
         keptJ[kept] = j;
         keep0[kept] = d0;
         keep1[kept] = d1;
         keep2[kept] = d2;
         keepSq[kept] = rsq;
-        kept += static_cast<Index>(!(rsq >= sumR * sumR) | (kCross && j >= ownedEnd));
+        bool keep = !(rsq >= sumR * sumR);
+        if constexpr (kCross) {
+          // Rare and clustered (rows next to the block's end): a branch. The lookup advances through the block's
+          // cross pairs, so it is asked for every one, touching or not, in candidate order. A kept cross pair's
+          // force is computed below too, from valid data, and not used.
+          const double* stored = nullptr;
+          if (j >= ownedEnd) {
+            stored = cross(c);
+            keep = stored != nullptr;
+          }
+          keptStored[kept] = stored;
+        }
+        kept += static_cast<Index>(keep);
       }
       // Pass 2: the forces of the kept pairs, (a) gathering each pair's inputs into columns, (b) the arithmetic of
       // touch() over the columns, two pairs per instruction where the law's expressions vectorise (the square
-      // roots and divisions included). A cross pair's force is computed too, from valid data, and not used.
+      // roots and divisions included).
       for (Index e = 0; e < kept; ++e) {
         const Index i = keptI[e], j = keptJ[e];
         gatherRi[e] = r[i];
@@ -429,11 +441,10 @@ struct PairKernel {
         }
         const Index j = keptJ[e];
         if (kCross && j >= ownedEnd) {
-          if (const double* stored = cross(keptC[e])) {
-            fi0 += stored[0];
-            fi1 += stored[1];
-            fi2 += stored[2];
-          }
+          const double* stored = keptStored[e];
+          fi0 += stored[0];
+          fi1 += stored[1];
+          fi2 += stored[2];
           continue;
         }
         fi0 += keep0[e];
@@ -508,15 +519,16 @@ void serialPairs(const typename Law::Params& params, const ForceContext& ctx) {
 }
 
 #if POLYDEM_WITH_OPENMP
-/// Owner computes (see force_loop.hpp): block t owns the forces of rows [blockStart[t], blockStart[t+1]).
+/// Owner sums (see force_loop.hpp): block t owns the forces of rows [blockStart[t], blockStart[t+1]).
 template <class Law, KernelFlags kFlags>
 void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) {
   constexpr bool kRotation = Law::kUsesRotation;
-  constexpr std::size_t kStride = kRotation ? 6 : 3;  // stored per cross pair: F_i (and tq_i)
+  constexpr std::size_t kStride = kRotation ? 9 : 3;  // stored per cross pair: F_i (and tq_i, tq_j)
   const PairKernel<Law, kFlags> k(params, ctx);
   const ContactList& list = *ctx.list;
   POLYDEM_ASSERT(list.blockCount() > 0, "threaded force loop without ContactList::buildBlocks()");
   const Index blocks = list.blockCount();
+  const auto crossCount = static_cast<Index>(list.crossCount());
   const Index* blockStart = list.blockStart.data();
   const Index* crossStart = list.crossStart.data();
   const Index* crossPair = list.crossPair.data();
@@ -527,12 +539,31 @@ void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) 
   std::uint8_t* touching = ctx.crossTouching;
 #pragma omp parallel num_threads(ctx.threads)
   {
-    // Pass 1, per block of j: body forces, then the cross pairs into the block in ascending (i, j), the
-    // first terms of the serial sum of every F_j. Each cross pair is computed (and its spring advanced)
-    // exactly once, here.
+    // Pass 1: every cross pair's force (and spring), exactly once, shared evenly between the threads: they
+    // write only their own pairs' slots. (The owner of j used to compute them, so with two blocks the thread
+    // of the second block did them all while the other waited at the barrier.)
+#pragma omp for schedule(static)
+    for (Index e = 0; e < crossCount; ++e) {
+      const Index c = crossPair[e], i = crossRow[e], j = k.neighbour[c];
+      Vec3 fc, tqi, tqj;
+      const bool touch = k.pairForce(i, k.loadRow(i), c, j, fc, tqi, tqj);
+      touching[e] = touch;
+      if (!touch) continue;
+      double* out = stored + kStride * static_cast<std::size_t>(e);
+      for (int q = 0; q < 3; ++q) out[q] = fc[q];
+      if constexpr (kRotation) {
+        for (int q = 0; q < 3; ++q) out[3 + q] = tqi[q];
+        for (int q = 0; q < 3; ++q) out[6 + q] = tqj[q];
+      }
+    }
+    // (implicit barrier: every cross pair is done)
+    // Pass 2, per block: body forces of the block, then the cross pairs into it in ascending (i, j), the
+    // first terms of the serial sum of every F_j (rows of earlier blocks come first in the serial order), then
+    // the serial loop over the block's rows, which meets the block's own cross pairs in the order they were
+    // listed (ascending c) and reads them back.
 #pragma omp for schedule(static, 1)
-    for (Index t = 0; t < blocks; ++t) {
-      for (Index j = blockStart[t]; j < blockStart[t + 1]; ++j) {
+    for (Index s = 0; s < blocks; ++s) {
+      for (Index j = blockStart[s]; j < blockStart[s + 1]; ++j) {
         const Vec3 fb = k.bodyForce(j);
         for (int q = 0; q < 3; ++q) k.f[3 * j + q] = fb[q];
         if constexpr (kRotation) {
@@ -540,27 +571,16 @@ void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) 
           for (int q = 0; q < 3; ++q) k.torque[3 * j + q] = tb[q];
         }
       }
-      for (Index m = targetOffset[t]; m < targetOffset[t + 1]; ++m) {
+      for (Index m = targetOffset[s]; m < targetOffset[s + 1]; ++m) {
         const Index e = byTarget[m];
-        const Index c = crossPair[e], i = crossRow[e], j = k.neighbour[c];
-        Vec3 fc, tqi, tqj;
-        const bool touch = k.pairForce(i, k.loadRow(i), c, j, fc, tqi, tqj);
-        touching[e] = touch;
-        if (!touch) continue;
-        subtract(k.f, j, fc);
-        double* out = stored + kStride * static_cast<std::size_t>(e);
-        for (int q = 0; q < 3; ++q) out[q] = fc[q];
+        if (!touching[e]) continue;
+        const Index j = k.neighbour[crossPair[e]];
+        const double* in = stored + kStride * static_cast<std::size_t>(e);
+        for (int q = 0; q < 3; ++q) k.f[3 * j + q] -= in[q];
         if constexpr (kRotation) {
-          subtract(k.torque, j, tqj);
-          for (int q = 0; q < 3; ++q) out[3 + q] = tqi[q];
+          for (int q = 0; q < 3; ++q) k.torque[3 * j + q] -= in[6 + q];
         }
       }
-    }
-    // (implicit barrier: every cross pair is done)
-    // Pass 2, per block of i: the serial loop over the block's rows, which meets the block's cross pairs
-    // in the order pass 1 listed them (ascending c) and reads them back.
-#pragma omp for schedule(static, 1)
-    for (Index s = 0; s < blocks; ++s) {
       Index e = crossStart[s];
       const auto crossForce = [&](Index c) -> const double* {
         POLYDEM_ASSERT(crossPair[e] == c, "cross pairs out of step with the rows");
