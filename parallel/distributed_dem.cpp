@@ -1061,27 +1061,42 @@ std::int64_t DistributedDem::advance(std::int64_t steps, bool stopOnInterrupt) {
   for (std::int64_t s = 0; s < steps; ++s) {
     const double limit = std::max(0.0, 0.5 * skin_ - growth_);
     // One reduction per step: the largest displacement (the rebuild decision, exact) and the interrupt flag.
+    const double t0 = MPI_Wtime();
     double reduced[2] = {openingKickAndDrift(closePending), interruptRequested() ? 1.0 : 0.0};
+    const double t1 = MPI_Wtime();
     {
       CommTimer timer(stats_.commSeconds);
       mpiCheck(MPI_Allreduce(MPI_IN_PLACE, reduced, 2, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD), "MPI_Allreduce");
     }
+    const double t2 = MPI_Wtime();
     if (reduced[1] > 0.0) interrupted_ = true;
     // As DemSimulation::advance: a re-sort at fixed steps when the order has decayed, else the rebuild rule.
     const integrators::ResortRule& rule = settings_.resort;
+    bool built = true;
     if (settings_.spatialSort && rule.interval > 0 && (step_ + 1) % rule.interval == 0 &&
         orderDecay() > rule.threshold) {
       resort();
     } else if (reduced[0] > limit * limit) {
       rebuild();
     } else {
+      built = false;
       exchangeGhosts();
     }
+    const double t3 = MPI_Wtime();
     computeForces();
+    const double t4 = MPI_Wtime();
     closePending = integrators::joinClosingKick(s, steps, step_ + 1, checkInterval, stopOnInterrupt && interrupted_);
     if (!closePending) closingKick();
+    const double t5 = MPI_Wtime();
+    stats_.integrationSeconds += (t1 - t0) + (t5 - t4);
+    stats_.reductionSeconds += t2 - t1;
+    (built ? stats_.buildSeconds : stats_.ghostSeconds) += t3 - t2;
+    stats_.forceSeconds += t4 - t3;
     ++step_;
-    if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) check();
+    if (settings_.stability.checkInterval > 0 && step_ % settings_.stability.checkInterval == 0) {
+      check();
+      stats_.checkSeconds += MPI_Wtime() - t5;
+    }
     if (stopOnInterrupt && interrupted_) {
       stats_.loopSeconds += MPI_Wtime() - start;
       return s + 1;
@@ -1297,16 +1312,29 @@ ParallelStats DistributedDem::stats() {
   out.decomposition = grid_.describe();
   out.rebalances = rebalances_;
   out.resorts = resorts_;
-  constexpr int kFields = 9;
-  const double mine[kFields] = {stats_.owned,      stats_.ghosts, stats_.pairs,        stats_.ghostBytesPerStep,
-                                stats_.migrated,   stats_.cost,   stats_.coarseGhosts, stats_.commSeconds,
-                                stats_.loopSeconds};
+  constexpr int kFields = 15;
+  const double mine[kFields] = {stats_.owned,
+                                stats_.ghosts,
+                                stats_.pairs,
+                                stats_.ghostBytesPerStep,
+                                stats_.migrated,
+                                stats_.cost,
+                                stats_.coarseGhosts,
+                                stats_.commSeconds,
+                                stats_.loopSeconds,
+                                stats_.integrationSeconds,
+                                stats_.reductionSeconds,
+                                stats_.buildSeconds,
+                                stats_.ghostSeconds,
+                                stats_.forceSeconds,
+                                stats_.checkSeconds};
   std::vector<double> all(static_cast<std::size_t>(kFields * size_));
   mpiCheck(MPI_Gather(mine, kFields, MPI_DOUBLE, all.data(), kFields, MPI_DOUBLE, 0, MPI_COMM_WORLD), "MPI_Gather");
   if (rank_ != 0) return out;
   for (int q = 0; q < size_; ++q) {
     const double* a = all.data() + kFields * q;
-    out.ranks.push_back(RankStats{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8]});
+    out.ranks.push_back(
+        RankStats{a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7], a[8], a[9], a[10], a[11], a[12], a[13], a[14]});
   }
   return out;
 }

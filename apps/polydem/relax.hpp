@@ -102,6 +102,9 @@ class StepDriver {
   virtual void finish() = 0;
   /// Re-sorts of the storage order (DemSettings::resort) during the distributed loop; after finish().
   virtual std::int64_t resorts() const = 0;
+  /// The loop's time by phase, mean over the ranks (after finish()); the report shows it instead of rank 0's
+  /// serial copy's, which ran no step.
+  virtual integrators::PhaseTimes phaseTimes() const = 0;
   /// Lines after the start lines and after the closing report (rank 0).
   virtual void printStart() const = 0;
   virtual void printReport() const = 0;
@@ -180,6 +183,8 @@ struct LoopTiming {
   std::int64_t totalSteps = 0;
   bool interrupted = false;
   std::int64_t resorts = 0;  ///< re-sorts of the storage order (DemSettings::resort) during the loop
+  /// A run on several ranks: its phase times (StepDriver::phaseTimes), else the serial simulation's are used.
+  std::optional<integrators::PhaseTimes> rankPhases;
 };
 /// The closing "--- relax report ---".
 void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,

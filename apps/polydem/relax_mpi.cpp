@@ -109,6 +109,23 @@ class MpiDriver final : public StepDriver {
 
   std::int64_t resorts() const override { return end_.resorts; }
 
+  integrators::PhaseTimes phaseTimes() const override {
+    integrators::PhaseTimes t;
+    const auto& ranks = end_.ranks;
+    for (const parallel::RankStats& r : ranks) {
+      t.broadPhase += r.buildSeconds;
+      t.force += r.forceSeconds;
+      t.integration += r.integrationSeconds;
+      t.check += r.checkSeconds;
+    }
+    const double count = std::max<double>(1.0, static_cast<double>(ranks.size()));
+    t.broadPhase /= count;
+    t.force /= count;
+    t.integration /= count;
+    t.check /= count;
+    return t;
+  }
+
   void printStart() const override {
     fmt::print("parallel: {} MPI ranks, {}; {}\n", parallel::size(), start_.decomposition, ghostsText(start_));
   }
@@ -143,9 +160,27 @@ class MpiDriver final : public StepDriver {
         "communication         {:.3f} s per rank (mean; max {:.3f}) of {:.3f} s in the loop (max), gathers to "
         "rank 0 included\n",
         comm.mean, comm.max, loop.max);
-    fmt::print(
-        "(the broad phase / force / integration split above is rank 0's serial copy's: not measured in a "
-        "parallel run)\n");
+    // The loop by phase on each rank: the reduction and the ghost updates are where a rank waits for the others.
+    struct Phase {
+      const char* label;
+      const char* key;
+      double parallel::RankStats::*seconds;
+    };
+    constexpr Phase phases[] = {{"kicks and drift", "integration", &parallel::RankStats::integrationSeconds},
+                                {"step reduction", "reduction", &parallel::RankStats::reductionSeconds},
+                                {"builds", "build", &parallel::RankStats::buildSeconds},
+                                {"ghost updates", "ghost_update", &parallel::RankStats::ghostSeconds},
+                                {"forces", "force", &parallel::RankStats::forceSeconds},
+                                {"checks", "check", &parallel::RankStats::checkSeconds}};
+    std::string line;
+    SummaryJson& json = summary();
+    for (const Phase& p : phases) {
+      const Spread s = spread(ranks, [&](const parallel::RankStats& r) { return r.*(p.seconds); });
+      line += fmt::format("{}{} {:.3f} ({:.3f})", line.empty() ? "" : ", ", p.label, s.mean, s.max);
+      json.put(fmt::format("parallel.phase_seconds.{}_mean", p.key), s.mean);
+      json.put(fmt::format("parallel.phase_seconds.{}_max", p.key), s.max);
+    }
+    fmt::print("phases per rank       s, mean (max): {}\n", line);
     SummaryJson& sum = summary();
     sum.put("parallel.ranks", static_cast<std::int64_t>(ranks.size()));
     sum.put("parallel.decomposition", end_.decomposition);

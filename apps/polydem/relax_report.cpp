@@ -61,7 +61,7 @@ void printStart(const RelaxScene& scene, const integrators::DemSimulation& sim, 
 void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim, const RunContext& run,
                  const LoopTiming& timing, const std::optional<std::string>& targetNotReached) {
   const contact::ContactStats c = sim.contactStats();
-  const integrators::PhaseTimes& t = sim.times();
+  const integrators::PhaseTimes& t = timing.rankPhases ? *timing.rankPhases : sim.times();
   const std::int64_t stepsRun = timing.stepsRun;
   const double loopSeconds = timing.loopSeconds;
   const std::int64_t total = timing.totalSteps;
@@ -86,9 +86,10 @@ void printReport(const RelaxScene& scene, const integrators::DemSimulation& sim,
   fmt::print("                      total {:.8g} (start {:.8g}, {})\n", e.total(), sim.initialEnergy(), relative);
   fmt::print(
       "time                  {:.4f} us/particle/step in the loop ({:.3f} s): broad phase {:.4f}, force {:.4f}, "
-      "integration {:.4f}, checks {:.4f}\n",
+      "integration {:.4f}, checks {:.4f}{}\n",
       loopSeconds * perParticleStep, loopSeconds, t.broadPhase * perParticleStep, t.force * perParticleStep,
-      t.integration * perParticleStep, t.check * perParticleStep);
+      t.integration * perParticleStep, t.check * perParticleStep,
+      timing.rankPhases ? " (mean over the ranks; the rest in the parallel section)" : "");
   fmt::print("neighbour list        {} rebuilds, {} re-sorts, {} candidate pairs ({:.2f} per particle)\n",
              sim.rebuilds(), timing.resorts, sim.neighbours().list().pairCount(),
              static_cast<double>(sim.neighbours().list().pairCount()) / n);

@@ -555,6 +555,7 @@ RunSummary runScene(const RelaxScene& scene, integrators::DemSimulation sim, con
   LoopTiming timing = timeLoop(scene, sim, series, out, mode.quiet, driver);
   if (driver) driver->finish();
   timing.resorts = driver ? driver->resorts() : sim.resorts() - resortsBefore;
+  if (driver) timing.rankPhases = driver->phaseTimes();
   series.flush();
   // The checks run once at the end whatever run.check_interval says (0 included): no state is written
   // as a result without having passed them.

@@ -31,6 +31,11 @@ if [ "$np" -gt 1 ]; then
   grep -q "^parallel: $np MPI ranks" run.log || fail "the run did not report $np ranks"
   moved=$(sed -n 's/^migrations *\([0-9]*\) particles.*/\1/p' run.log)
   [ -n "$moved" ] && [ "$moved" -gt 0 ] || fail "no particle migrated between ranks (the scene does not test migration)"
+  # The report's split of the loop is the ranks' own (it showed rank 0's serial copy's zeros before session 26).
+  grep -q "^time .*(mean over the ranks" run.log || fail "the time line does not give the ranks' phase times"
+  force=$(sed -n 's/^time .* force \([0-9.]*\),.*/\1/p' run.log)
+  awk -v f="$force" 'BEGIN { exit !(f > 0) }' || fail "the force phase is '$force' us/particle/step, not > 0"
+  grep -q "^phases per rank .*forces [0-9.]* ([0-9.]*)" run.log || fail "no per-rank phase line in the report"
 fi
 # The re-sorts of the storage order (they renumber the slots the ranks key their particles by): as many as
 # the serial run's, and some where the scene says it expects them.
