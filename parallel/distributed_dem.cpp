@@ -431,6 +431,28 @@ void DistributedDem::setupGhostBuffers() {
   stats_.ghosts = static_cast<double>(n_) - stats_.owned;
 }
 
+namespace {
+
+/// Sorts `v`, whose ranges [runs[k], runs[k + 1]) are usually sorted already (each made in key order by one
+/// rank): merges them when every one is, else sorts the whole. Either way the result is the one order of
+/// the elements by `less`, which must not rank two elements equal (keys are unique). A build used to sort
+/// from scratch: 4-5 % of a rank's loop at 10^6 spheres.
+template <class T, class Less>
+void sortRuns(std::vector<T>& v, const std::vector<std::size_t>& runs, Less less) {
+  const auto at = [&](std::size_t k) { return v.begin() + static_cast<std::ptrdiff_t>(runs[k]); };
+  for (std::size_t k = 0; k + 1 < runs.size(); ++k) {
+    if (!std::is_sorted(at(k), at(k + 1), less)) {
+      std::sort(v.begin(), v.end(), less);
+      return;
+    }
+  }
+  for (std::size_t k = 1; k + 1 < runs.size(); ++k) {
+    if (runs[k + 1] > runs[k]) std::inplace_merge(v.begin(), at(k), at(k + 1), less);
+  }
+}
+
+}  // namespace
+
 // ---- the neighbour list ---------------------------------------------------------------------------------
 
 void DistributedDem::buildList(const Eigen::Matrix3Xd& centres, const Eigen::VectorXd& radii) {
@@ -794,12 +816,15 @@ void DistributedDem::rebuild() {
       stats_.migrated += 1.0;
     }
   }
+  const auto W = static_cast<std::size_t>(recordWidth());
+  std::vector<std::size_t> ownedRuns{0, records.size() / W};  // the kept particles, then one run per sender
   std::vector<double> in;
   std::vector<int> inCount;
   {
     CommTimer timer(stats_.commSeconds);
     allToAll(particleOut, in, inCount);
     records.insert(records.end(), in.begin(), in.end());
+    for (const int c : inCount) ownedRuns.push_back(ownedRuns.back() + static_cast<std::size_t>(c) / W);
     allToAll(pairOut, in, inCount);
     pairPool.insert(pairPool.end(), in.begin(), in.end());
     allToAll(wallOut, in, inCount);
@@ -807,12 +832,11 @@ void DistributedDem::rebuild() {
   }
 
   // 3. Owned particles in key order; the largest owned radius of every rank.
-  const auto W = static_cast<std::size_t>(recordWidth());
   const int rOff = rotation_ ? 17 : 11;
   const std::size_t owned = records.size() / W;
   std::vector<std::size_t> order(owned);
   std::iota(order.begin(), order.end(), std::size_t{0});
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return records[a * W] < records[b * W]; });
+  sortRuns(order, ownedRuns, [&](std::size_t a, std::size_t b) { return records[a * W] < records[b * W]; });
   double rmaxMine = -1.0;
   for (std::size_t o = 0; o < owned; ++o)
     rmaxMine = std::max(rmaxMine, records[o * W + static_cast<std::size_t>(rOff)]);
@@ -860,7 +884,9 @@ void DistributedDem::rebuild() {
   merged.reserve(owned + ghostTotal);
   for (std::size_t o = 0; o < owned; ++o) merged.emplace_back(records[order[o] * W], o);
   for (std::size_t gI = 0; gI < ghostTotal; ++gI) merged.emplace_back(ghosts[gI * W], owned + gI);
-  std::sort(merged.begin(), merged.end());
+  std::vector<std::size_t> mergedRuns{0, owned};  // the owned particles, then one run of ghosts per sender
+  for (const int c : ghostCount) mergedRuns.push_back(mergedRuns.back() + static_cast<std::size_t>(c) / W);
+  sortRuns(merged, mergedRuns, std::less<>{});
   n_ = static_cast<Index>(merged.size());
   key_.resize(merged.size());
   id_.resize(merged.size());
