@@ -68,7 +68,7 @@ struct RankStats {
   double coarseGhosts = 0.0;       ///< ghosts the distance rule (1) alone would send, at the last build
   double commSeconds = 0.0;        ///< in MPI calls (exchanges, reductions, gathers)
   double loopSeconds = 0.0;        ///< in advance(), all of it
-  // advance()'s time by phase (wall-clock, MPI calls inside a phase included): they add up to loopSeconds.
+  // advance()'s time by phase (wall-clock, MPI calls inside a phase included): together nearly all of loopSeconds.
   double integrationSeconds = 0.0;  ///< kicks and drift
   double reductionSeconds =
       0.0;                    ///< the step's reduction (largest displacement, interrupt): waits for the slowest rank
