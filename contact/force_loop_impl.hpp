@@ -576,10 +576,8 @@ void threadedPairs(const typename Law::Params& params, const ForceContext& ctx) 
         if (!touching[e]) continue;
         const Index j = k.neighbour[crossPair[e]];
         const double* in = stored + kStride * static_cast<std::size_t>(e);
-        for (int q = 0; q < 3; ++q) k.f[3 * j + q] -= in[q];
-        if constexpr (kRotation) {
-          for (int q = 0; q < 3; ++q) k.torque[3 * j + q] -= in[6 + q];
-        }
+        subtract(k.f, j, load(in, 0));
+        if constexpr (kRotation) subtract(k.torque, j, load(in + 6, 0));
       }
       Index e = crossStart[s];
       const auto crossForce = [&](Index c) -> const double* {

@@ -110,19 +110,14 @@ class MpiDriver final : public StepDriver {
   std::int64_t resorts() const override { return end_.resorts; }
 
   integrators::PhaseTimes phaseTimes() const override {
+    const auto mean = [&](double parallel::RankStats::*seconds) {
+      return spread(end_.ranks, [&](const parallel::RankStats& r) { return r.*seconds; }).mean;
+    };
     integrators::PhaseTimes t;
-    const auto& ranks = end_.ranks;
-    for (const parallel::RankStats& r : ranks) {
-      t.broadPhase += r.buildSeconds;
-      t.force += r.forceSeconds;
-      t.integration += r.integrationSeconds;
-      t.check += r.checkSeconds;
-    }
-    const double count = std::max<double>(1.0, static_cast<double>(ranks.size()));
-    t.broadPhase /= count;
-    t.force /= count;
-    t.integration /= count;
-    t.check /= count;
+    t.broadPhase = mean(&parallel::RankStats::buildSeconds);
+    t.force = mean(&parallel::RankStats::forceSeconds);
+    t.integration = mean(&parallel::RankStats::integrationSeconds);
+    t.check = mean(&parallel::RankStats::checkSeconds);
     return t;
   }
 
@@ -173,15 +168,14 @@ class MpiDriver final : public StepDriver {
                                 {"forces", "force", &parallel::RankStats::forceSeconds},
                                 {"checks", "check", &parallel::RankStats::checkSeconds}};
     std::string line;
-    SummaryJson& json = summary();
+    SummaryJson& sum = summary();
     for (const Phase& p : phases) {
       const Spread s = spread(ranks, [&](const parallel::RankStats& r) { return r.*(p.seconds); });
       line += fmt::format("{}{} {:.3f} ({:.3f})", line.empty() ? "" : ", ", p.label, s.mean, s.max);
-      json.put(fmt::format("parallel.phase_seconds.{}_mean", p.key), s.mean);
-      json.put(fmt::format("parallel.phase_seconds.{}_max", p.key), s.max);
+      sum.put(fmt::format("parallel.phase_seconds.{}_mean", p.key), s.mean);
+      sum.put(fmt::format("parallel.phase_seconds.{}_max", p.key), s.max);
     }
     fmt::print("phases per rank       s, mean (max): {}\n", line);
-    SummaryJson& sum = summary();
     sum.put("parallel.ranks", static_cast<std::int64_t>(ranks.size()));
     sum.put("parallel.decomposition", end_.decomposition);
     sum.put("parallel.rebalances", end_.rebalances);
