@@ -5,7 +5,7 @@
 // Runtime choices become compile-time ones in exactly one place, selectForceKernel(): a frictionless,
 // wall-free, gravity-free scene runs computeForces<LinearLaw, {}> which has no rotation arrays, no
 // history, no wall loop and no branches for any of them. Every shipped combination is instantiated
-// once in force_loop_instances.cpp (every law x 8 flag sets).
+// once in force_kernels_*.cpp (every law x 8 flag sets).
 //
 // Velocities: velocity Verlet evaluates forces at positions x(t + dt) while the velocities are at
 // t + dt/2. Dashpots and viscous damping use the predicted v(t + dt) = v(t + dt/2) + dt/2 a(t)

@@ -1,6 +1,7 @@
 #pragma once
-// Definition of computeForces<Law, kFlags>. Included only by force_loop_instances.cpp, which lists
-// the explicit instantiations: other translation units see the declaration in force_loop.hpp.
+// Definition of computeForces<Law, kFlags>. Included only by force_kernels_*.cpp, which list the explicit
+// instantiations (three laws each, so the two cores of a build share them: the 72 kernels in one file took
+// 3 minutes of one core in the checked build); other translation units see the declaration in force_loop.hpp.
 #include <Eigen/Core>
 #include <Eigen/Geometry>  // cross products
 #include <algorithm>
@@ -669,3 +670,15 @@ void computeForces(const typename Law::Params& params, const ForceContext& ctx) 
 }
 
 }  // namespace polydem::contact
+
+// The eight flag sets of one law, instantiated; force_kernels_*.cpp use it once per law. Adding a law: one
+// line in one of those files, one case in paramsFor() and selectForceKernel() (force_kernel_select.cpp).
+#define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
+  template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
+  template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{false, true, false}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{true, true, false}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{false, false, true}>(const LAW::Params&, const ForceContext&);  \
+  template void computeForces<LAW, KernelFlags{true, false, true}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{false, true, true}>(const LAW::Params&, const ForceContext&);   \
+  template void computeForces<LAW, KernelFlags{true, true, true}>(const LAW::Params&, const ForceContext&);

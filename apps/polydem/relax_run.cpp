@@ -80,7 +80,7 @@ namespace {
 
 using Vec3 = Eigen::Vector3d;
 
-/// The run's normal law at one contact (the kernel's choice, contact/force_loop_instances.cpp).
+/// The run's normal law at one contact (the kernel's choice, contact/force_kernel_select.cpp).
 contact::NormalForce normalForce(const contact::ContactModel& model, double overlap, double rate, double meff,
                                  double reff) {
   const contact::ContactParameters& p = model.parameters();

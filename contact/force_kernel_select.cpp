@@ -1,36 +1,20 @@
-// Every shipped force-kernel combination, instantiated once, and the dispatch that picks one.
+// The dispatch that picks one of the shipped force kernels (instantiated in force_kernels_*.cpp: every
+// law x 8 flag sets), and the contact statistics of a state.
 #include <fmt/format.h>
 
+#include <Eigen/Core>
+#include <cmath>
 #include <type_traits>
 
-#include "contact/force_loop_impl.hpp"
+#include "contact/force_loop.hpp"
+#include "contact/hertz_mindlin.hpp"
 #include "core/errors.hpp"
 
 namespace polydem::contact {
 
-// 9 laws x 8 flag sets. Adding a law: one line here, one case in paramsFor() and selectForceKernel().
-#define POLYDEM_FORCE_KERNEL_INSTANCES(LAW)                                                                    \
-  template void computeForces<LAW, KernelFlags{false, false, false}>(const LAW::Params&, const ForceContext&); \
-  template void computeForces<LAW, KernelFlags{true, false, false}>(const LAW::Params&, const ForceContext&);  \
-  template void computeForces<LAW, KernelFlags{false, true, false}>(const LAW::Params&, const ForceContext&);  \
-  template void computeForces<LAW, KernelFlags{true, true, false}>(const LAW::Params&, const ForceContext&);   \
-  template void computeForces<LAW, KernelFlags{false, false, true}>(const LAW::Params&, const ForceContext&);  \
-  template void computeForces<LAW, KernelFlags{true, false, true}>(const LAW::Params&, const ForceContext&);   \
-  template void computeForces<LAW, KernelFlags{false, true, true}>(const LAW::Params&, const ForceContext&);   \
-  template void computeForces<LAW, KernelFlags{true, true, true}>(const LAW::Params&, const ForceContext&);
-
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(HertzLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearFrictionLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(HertzFrictionLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityFrictionLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearLammpsLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(LinearMassVelocityLammpsLaw)
-POLYDEM_FORCE_KERNEL_INSTANCES(HertzMindlinLaw)
-#undef POLYDEM_FORCE_KERNEL_INSTANCES
-
 namespace {
+
+Eigen::Vector3d load(const double* a, Index i) { return Eigen::Vector3d(a[3 * i], a[3 * i + 1], a[3 * i + 2]); }
 
 template <class Law>
 typename Law::Params paramsFor(const ContactModel& model) {
@@ -132,10 +116,10 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
   };
   const ContactList& list = *ctx.list;
   for (Index i = 0; i < ctx.count; ++i) {
-    const Eigen::Vector3d xi = detail::load(ctx.position, i);
+    const Eigen::Vector3d xi = load(ctx.position, i);
     for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
       const Index j = list.neighbour[c];
-      Eigen::Vector3d d = xi - detail::load(ctx.position, j);
+      Eigen::Vector3d d = xi - load(ctx.position, j);
       for (int k = 0; k < 3; ++k) {  // the kernel's minimum image (halfLength = inf on walled axes)
         if (d[k] > ctx.halfLength[k]) {
           d[k] -= ctx.length[k];
