@@ -17,6 +17,7 @@
 // Dense states come from event-driven compression when random sequential addition stalls (--dense).
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <limits>
 #include <string>

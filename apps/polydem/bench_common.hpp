@@ -18,7 +18,6 @@
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/pair_report.hpp"
-#include "apps/polydem/validators.hpp"
 #include "broadphase/auto_select.hpp"
 #include "broadphase/hgrid.hpp"
 #include "broadphase/hgrid_cost_model.hpp"

@@ -1,7 +1,12 @@
 #pragma once
 // Subcommands of the polydem program. Each registers itself on the CLI11 app and returns a runner.
-#include <CLI/CLI.hpp>
 #include <functional>
+
+// CLI11 only by name: the header costs 4-13 s of compile time in every file that includes it (its validators are
+// objects defined in the header), so only the files that build options include it.
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace polydem::app {
 

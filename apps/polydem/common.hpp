@@ -1,15 +1,18 @@
 #pragma once
 // Helpers shared by the subcommands: option groups, parsing of boundary names, timing.
-#include <CLI/CLI.hpp>
 #include <array>
 #include <chrono>
 #include <ctime>
 #include <string>
 #include <vector>
 
-#include "apps/polydem/validators.hpp"
 #include "core/box.hpp"
 #include "core/size_distribution.hpp"
+
+namespace CLI {
+class App;
+class Validator;
+}  // namespace CLI
 
 namespace polydem::app {
 

@@ -1,11 +1,14 @@
 #pragma once
 // --equivalent bi|tri of `generate` and `jam`: replace the sampled distribution by its equivalent
 // bidisperse or maximally equivalent tridisperse mixture (core/equivalent_mixture.hpp), same N.
-#include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
 
 #include "core/size_distribution.hpp"
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace polydem::app {
 

@@ -2,6 +2,7 @@
 // broad phase on it, checks they agree, and prints the timings side by side.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -1,6 +1,7 @@
 // polydem generate: sample a size distribution, place the spheres, write a particle file.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <limits>

@@ -18,6 +18,7 @@
 // which cost LAMMPS 3-10% at size ratios 10-50; with 8 K its choice beats the doubling set at every ratio.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <charconv>
 #include <cmath>

@@ -1,6 +1,7 @@
 // polydem: command-line front end. `polydem --help` lists the subcommands.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
 #include <filesystem>

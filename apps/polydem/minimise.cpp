@@ -6,6 +6,7 @@
 // writes, so `polydem analyze` reads it (see writeOutput() for reduced_pressure).
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>

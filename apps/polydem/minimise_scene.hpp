@@ -5,10 +5,13 @@
 // lists every key.
 #pragma once
 
-#include <CLI/CLI.hpp>
 #include <filesystem>
 #include <set>
 #include <string>
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace polydem::app {
 

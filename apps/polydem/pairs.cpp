@@ -1,6 +1,7 @@
 // polydem pairs: run one broad-phase backend on a particle file and report pairs and timing.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 
 #include "apps/polydem/commands.hpp"

@@ -3,6 +3,8 @@
 // a particle file). No simulation.
 #include <fmt/format.h>
 
+#include <CLI/CLI.hpp>
+
 #include "apps/polydem/commands.hpp"
 #include "apps/polydem/common.hpp"
 #include "apps/polydem/validators.hpp"

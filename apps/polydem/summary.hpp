@@ -8,13 +8,16 @@
 // the file (atomically) after it, also when the run ends with exit code 3, 4 or 130. Keys are dotted
 // paths, written as nested objects in the order they were first put. A value that does not exist (an
 // undefined estimate, a non-finite number) is written as null with a "<name>_undefined" reason beside it.
-#include <CLI/CLI.hpp>
 #include <cstdint>
 #include <string>
 #include <string_view>
 #include <type_traits>
 #include <variant>
 #include <vector>
+
+namespace CLI {
+class App;
+}  // namespace CLI
 
 namespace polydem::app {
 
