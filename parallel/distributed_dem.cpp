@@ -413,7 +413,7 @@ void DistributedDem::exchangeReach(const std::vector<double>& centres, const std
 }
 
 void DistributedDem::setupGhostBuffers() {
-  const int width = 6 + (predict_ ? 3 : 0) + (rotation_ ? 3 + (predict_ ? 3 : 0) : 0);
+  const int width = 3 + (ghostsReadHalfStep() ? 3 : 0) + (predict_ ? 3 : 0) + (rotation_ ? 3 + (predict_ ? 3 : 0) : 0);
   sendOffset_.assign(static_cast<std::size_t>(size_) + 1, 0);
   recvOffset_.assign(static_cast<std::size_t>(size_) + 1, 0);
   partners_.clear();
@@ -600,12 +600,16 @@ void DistributedDem::closingKick() {
 }
 
 void DistributedDem::exchangeGhosts() {
-  // What the kernel reads of a ghost and what changes every step: x, v(t + dt/2), the predicted v and the
-  // same for rotation. Radii and masses change only by growRadii(), which every rank applies to its ghosts too.
+  // What the kernel reads of a ghost and what changes every step: x, v(t + dt/2) (ghostsReadHalfStep()), the
+  // predicted v and the same for rotation. Radii and masses change only by growRadii(), which every rank
+  // applies to its ghosts too.
+  const bool half = ghostsReadHalfStep();
   auto pack = [&](Index i, double* out) {
     int o = 0;
     for (int k = 0; k < 3; ++k) out[o++] = x_(k, i);
-    for (int k = 0; k < 3; ++k) out[o++] = v_(k, i);
+    if (half) {
+      for (int k = 0; k < 3; ++k) out[o++] = v_(k, i);
+    }
     if (predict_) {
       for (int k = 0; k < 3; ++k) out[o++] = vp_(k, i);
     }
@@ -642,7 +646,9 @@ void DistributedDem::exchangeGhosts() {
     const double* in = recvBuffer_.data() + recvOffset_[static_cast<std::size_t>(q)];
     for (const Index i : recvSlots_[static_cast<std::size_t>(q)]) {
       for (int k = 0; k < 3; ++k) x_(k, i) = *in++;
-      for (int k = 0; k < 3; ++k) v_(k, i) = *in++;
+      if (half) {
+        for (int k = 0; k < 3; ++k) v_(k, i) = *in++;
+      }
       if (predict_) {
         for (int k = 0; k < 3; ++k) vp_(k, i) = *in++;
       }

@@ -153,6 +153,11 @@ class DistributedDem {
   /// Gather, run the serial check on rank 0 and throw its message on every rank (or `fallback`).
   [[noreturn]] void failCollectively(const std::string& fallback);
   void setupGhostBuffers();
+  /// Whether the force kernel reads a ghost's v(t + dt/2): as `velocity` without the prediction, and for the
+  /// tangential springs of rotating laws. A frictionless run with the prediction reads only the predicted
+  /// velocity, so its ghost updates leave v(t + dt/2) out (a third of the bytes); a ghost's v(t + dt/2) is
+  /// read by nothing else (kicks, checks, gathers and migrations use owned particles).
+  bool ghostsReadHalfStep() const { return !predict_ || rotation_; }
   int recordWidth() const;
   void packRecord(Index slot, std::vector<double>& out) const;
 
