@@ -14,8 +14,6 @@ namespace polydem::contact {
 
 namespace {
 
-Eigen::Vector3d load(const double* a, Index i) { return Eigen::Vector3d(a[3 * i], a[3 * i + 1], a[3 * i + 2]); }
-
 template <class Law>
 typename Law::Params paramsFor(const ContactModel& model) {
   typename Law::Params p{};
@@ -116,10 +114,10 @@ ContactStats measureContacts(const ContactModel& model, const ForceContext& ctx)
   };
   const ContactList& list = *ctx.list;
   for (Index i = 0; i < ctx.count; ++i) {
-    const Eigen::Vector3d xi = load(ctx.position, i);
+    const Eigen::Vector3d xi = Eigen::Map<const Eigen::Vector3d>(ctx.position + 3 * i);
     for (Index c = list.offset[i]; c < list.offset[i + 1]; ++c) {
       const Index j = list.neighbour[c];
-      Eigen::Vector3d d = xi - load(ctx.position, j);
+      Eigen::Vector3d d = xi - Eigen::Map<const Eigen::Vector3d>(ctx.position + 3 * j);
       for (int k = 0; k < 3; ++k) {  // the kernel's minimum image (halfLength = inf on walled axes)
         if (d[k] > ctx.halfLength[k]) {
           d[k] -= ctx.length[k];
