@@ -1,7 +1,8 @@
 # Scheduling hints for CTest (the COST property): on a clean clone CTest has no timings of its own and starts
 # the tests in the order they are defined, so a pass used to end with long tests running one after another
-# (the checked pass took 682 s for 878 s of tests on two cores). With COST set, `ctest -j` starts the dearest
-# first. The seconds are in tests/test_cost_data.cmake, written by scripts/test-costs.sh from measured passes.
+# (session 26's fresh-clone CI: the checked pass took 682 s for 878 s of tests on two cores). With COST set,
+# `ctest -j` starts the dearest first. The seconds are in tests/test_cost_data.cmake, written by
+# scripts/test-costs.sh from measured passes.
 #
 # Read twice: at configure time by each directory that adds tests with add_test() (polydem_apply_test_costs(),
 # for the tests of that directory), and at test time as a CTest include file (for the GoogleTest cases, which

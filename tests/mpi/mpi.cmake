@@ -181,8 +181,8 @@ delta_phi = 0.01
 progress = 0.0
 ")
 # The checked pass (which skips `slow`) runs FIRE across ranks in mpi_min_walls_np3 and the pressure protocol
-# across ranks in mpi_min_jam_cg_np2 (below); the FIRE protocol's mpi_min_jam_* (39 s and 28 s under the
-# sanitizers, 5 s in Release) run in the Release pass only.
+# across ranks in mpi_min_jam_cg_np2 (below); the FIRE protocol's mpi_min_jam_np2 and _serial (39 s and 28 s
+# under the sanitizers, 8 s and 5 s in Release) run in the Release pass only.
 set(_polydem_mpi_min_quick mpi_min_walls_np3)
 foreach(scene min_jam min_walls)
   add_test(NAME mpi_${scene}_serial
