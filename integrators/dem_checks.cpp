@@ -17,18 +17,6 @@ std::string faceName(int face) { return fmt::format("{}{}", (face & 1) ? "+" : "
 
 }  // namespace
 
-void StabilityLimits::validate() const {
-  if (checkInterval < 0) {
-    throw ConfigError(fmt::format("run.check_interval must be >= 0 (0 = never), got {}", checkInterval));
-  }
-  if (!(maxOverlapFraction > 0.0 && std::isfinite(maxOverlapFraction))) {
-    throw ConfigError(fmt::format("run.max_overlap_fraction must be > 0, got {}", maxOverlapFraction));
-  }
-  if (!(energyTolerance > 0.0 && std::isfinite(energyTolerance))) {
-    throw ConfigError(fmt::format("run.energy_tolerance must be > 0, got {}", energyTolerance));
-  }
-}
-
 std::string DemSimulation::dtHint() const {
   const double f = timeStep_.stepsPerContact;
   const std::string law =

@@ -10,25 +10,6 @@
 
 namespace polydem::integrators {
 
-void CompressionSettings::validate() const {
-  if (!(targetPacking > 0.0 && targetPacking < 1.0)) {
-    throw ConfigError(fmt::format("compression.packing_fraction must be in (0, 1), got {}", targetPacking));
-  }
-  if (!(growthRate > 0.0 && growthRate <= 0.1)) {
-    throw ConfigError(
-        fmt::format("compression.growth_rate must be in (0, 0.1] (relative radius growth per contact "
-                    "duration), got {}",
-                    growthRate));
-  }
-  if (!(damping > 0.0 && std::isfinite(damping))) {
-    throw ConfigError(fmt::format("compression.damping must be > 0, got {}", damping));
-  }
-  if (!(relaxedOverlap > 0.0 && std::isfinite(relaxedOverlap))) {
-    throw ConfigError(fmt::format("compression.max_overlap must be > 0, got {}", relaxedOverlap));
-  }
-  if (maxSteps < 1) throw ConfigError(fmt::format("compression.max_steps must be >= 1, got {}", maxSteps));
-}
-
 namespace {
 
 constexpr std::int64_t kGrowthChunk = 20;
