@@ -812,40 +812,52 @@ void DistributedDem::rebuild() {
       put(d == rank_ ? wallPool : wallOut[static_cast<std::size_t>(d)], wallKeys_[c], values);
     }
   }
-  std::vector<double> records;  // owned particles after the migration
+  // Kept particles stay in their slots (ascending slots follow ascending keys); only the leaving ones are packed.
+  std::vector<Index> kept;
+  kept.reserve(ownedSlots_.size());
   for (const Index i : ownedSlots_) {
     const int d = dest[static_cast<std::size_t>(i)];
     if (d == rank_) {
-      packRecord(i, records);
+      kept.push_back(i);
     } else {
       packRecord(i, particleOut[static_cast<std::size_t>(d)]);
       stats_.migrated += 1.0;
     }
   }
   const auto W = static_cast<std::size_t>(recordWidth());
-  std::vector<std::size_t> ownedRuns{0, records.size() / W};  // the kept particles, then one run per sender
-  std::vector<double> in;
-  std::vector<int> inCount;
+  std::vector<double> arrivals;  // records of the particles that came, one run per sender
+  std::vector<int> arrivalCount;
   {
     CommTimer timer(stats_.commSeconds);
-    allToAll(particleOut, in, inCount);
-    records.insert(records.end(), in.begin(), in.end());
-    for (const int c : inCount) ownedRuns.push_back(ownedRuns.back() + static_cast<std::size_t>(c) / W);
+    allToAll(particleOut, arrivals, arrivalCount);
+    std::vector<double> in;
+    std::vector<int> inCount;
     allToAll(pairOut, in, inCount);
     pairPool.insert(pairPool.end(), in.begin(), in.end());
     allToAll(wallOut, in, inCount);
     wallPool.insert(wallPool.end(), in.begin(), in.end());
   }
 
-  // 3. Owned particles in key order; the largest owned radius of every rank.
+  // 3. Owned particles in key order, as (key, code): code < kept.size() is the kept particle in slot kept[code],
+  //    a larger code the arrival code - kept.size(). The largest owned radius of every rank.
   const int rOff = rotation_ ? 17 : 11;
-  const std::size_t owned = records.size() / W;
-  std::vector<std::size_t> order(owned);
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  sortRuns(order, ownedRuns, [&](std::size_t a, std::size_t b) { return records[a * W] < records[b * W]; });
+  const std::size_t keptCount = kept.size();
+  const std::size_t owned = keptCount + arrivals.size() / W;
+  const auto arrival = [&](std::size_t code) { return arrivals.data() + (code - keptCount) * W; };
+  const auto centreOf = [&](std::size_t code) -> const double* {
+    return code < keptCount ? &x_(0, kept[code]) : arrival(code) + kX;
+  };
+  const auto radiusOf = [&](std::size_t code) { return code < keptCount ? r_[kept[code]] : arrival(code)[rOff]; };
+  std::vector<std::pair<double, std::size_t>> order;
+  order.reserve(owned);
+  for (std::size_t o = 0; o < keptCount; ++o)
+    order.emplace_back(static_cast<double>(key_[static_cast<std::size_t>(kept[o])]), o);
+  for (std::size_t code = keptCount; code < owned; ++code) order.emplace_back(arrival(code)[0], code);
+  std::vector<std::size_t> ownedRuns{0, keptCount};  // the kept particles, then one run per sender
+  for (const int c : arrivalCount) ownedRuns.push_back(ownedRuns.back() + static_cast<std::size_t>(c) / W);
+  sortRuns(order, ownedRuns, [](const auto& a, const auto& b) { return a.first < b.first; });
   double rmaxMine = -1.0;
-  for (std::size_t o = 0; o < owned; ++o)
-    rmaxMine = std::max(rmaxMine, records[o * W + static_cast<std::size_t>(rOff)]);
+  for (std::size_t code = 0; code < owned; ++code) rmaxMine = std::max(rmaxMine, radiusOf(code));
   {
     CommTimer timer(stats_.commSeconds);
     mpiCheck(MPI_Allgather(&rmaxMine, 1, MPI_DOUBLE, rmax_.data(), 1, MPI_DOUBLE, MPI_COMM_WORLD), "MPI_Allgather");
@@ -855,10 +867,10 @@ void DistributedDem::rebuild() {
     std::vector<double> centres, radii;
     centres.reserve(3 * owned);
     radii.reserve(owned);
-    for (std::size_t o = 0; o < owned; ++o) {
-      centres.insert(centres.end(), records.begin() + static_cast<std::ptrdiff_t>(o * W + kX),
-                     records.begin() + static_cast<std::ptrdiff_t>(o * W + kX + 3));
-      radii.push_back(records[o * W + static_cast<std::size_t>(rOff)]);
+    for (std::size_t code = 0; code < owned; ++code) {
+      const double* x = centreOf(code);
+      centres.insert(centres.end(), x, x + 3);
+      radii.push_back(radiusOf(code));
     }
     exchangeReach(centres, radii);
   }
@@ -868,12 +880,19 @@ void DistributedDem::rebuild() {
   std::vector<std::vector<std::size_t>> sendIndex(P);  // position in `order` of each particle sent to q
   stats_.coarseGhosts = 0.0;
   for (std::size_t o = 0; o < owned; ++o) {
-    const double* rec = records.data() + order[o] * W;
+    const std::size_t code = order[o].second;
+    const double* x = centreOf(code);
+    const double r = radiusOf(code);
     for (int q = 0; q < size_; ++q) {
       if (q == rank_) continue;
-      stats_.coarseGhosts += coarseGhost(rec + kX, rec[rOff], q) ? 1.0 : 0.0;
-      if (!needsGhost(rec + kX, rec[rOff], q)) continue;
-      ghostOut[static_cast<std::size_t>(q)].insert(ghostOut[static_cast<std::size_t>(q)].end(), rec, rec + W);
+      stats_.coarseGhosts += coarseGhost(x, r, q) ? 1.0 : 0.0;
+      if (!needsGhost(x, r, q)) continue;
+      std::vector<double>& out = ghostOut[static_cast<std::size_t>(q)];
+      if (code < keptCount) {
+        packRecord(kept[code], out);
+      } else {
+        out.insert(out.end(), arrival(code), arrival(code) + W);
+      }
       sendIndex[static_cast<std::size_t>(q)].push_back(o);
     }
   }
@@ -884,67 +903,101 @@ void DistributedDem::rebuild() {
     allToAll(ghostOut, ghosts, ghostCount);
   }
 
-  // 5. Owned and ghosts merged in key order.
+  // 5. Owned and ghosts merged in key order, into new arrays (the kept particles are read from the old ones).
   const std::size_t ghostTotal = ghosts.size() / W;
   std::vector<std::pair<double, std::size_t>> merged;  // (key, o < owned: order[o]; else owned + ghost index)
   merged.reserve(owned + ghostTotal);
-  for (std::size_t o = 0; o < owned; ++o) merged.emplace_back(records[order[o] * W], o);
+  for (std::size_t o = 0; o < owned; ++o) merged.emplace_back(order[o].first, o);
   for (std::size_t gI = 0; gI < ghostTotal; ++gI) merged.emplace_back(ghosts[gI * W], owned + gI);
   std::vector<std::size_t> mergedRuns{0, owned};  // the owned particles, then one run of ghosts per sender
   for (const int c : ghostCount) mergedRuns.push_back(mergedRuns.back() + static_cast<std::size_t>(c) / W);
   sortRuns(merged, mergedRuns, std::less<>{});
-  n_ = static_cast<Index>(merged.size());
-  key_.resize(merged.size());
-  id_.resize(merged.size());
-  owned_.resize(merged.size());
-  x_.resize(3, n_);
-  v_.resize(3, n_);
-  vp_.resize(3, n_);
-  f_.resize(3, n_);
-  r_.resize(n_);
-  invm_.resize(n_);
+  const auto n = static_cast<Index>(merged.size());
+  std::vector<Index> key(merged.size()), id(merged.size());
+  std::vector<std::uint8_t> mine(merged.size());
+  Eigen::Matrix3Xd x(3, n), v(3, n), vp(3, n), w, wp, tq;
+  Eigen::VectorXd r(n), invm(n), invI;
   if (rotation_) {
-    w_.resize(3, n_);
-    wp_.resize(3, n_);
-    tq_.resize(3, n_);
-    invI_.resize(n_);
+    w.resize(3, n);
+    wp.resize(3, n);
+    tq.resize(3, n);
+    invI.resize(n);
     // Without a rotating kernel nothing writes torques (the serial store keeps its zeros); with one, the
     // force loop overwrites them.
-    tq_.setZero();
+    tq.setZero();
   }
+  // Forces are read only where they were carried (a build within a compression step); the force loop
+  // overwrites them otherwise.
+  Eigen::Matrix3Xd f(3, n);
+  const int fOff = rOff + (rotation_ ? 3 : 2);
   std::vector<Index> slotOf(merged.size());
   ownedSlots_.clear();
   for (std::size_t s = 0; s < merged.size(); ++s) {
     const std::size_t code = merged[s].second;
-    const bool mine = code < owned;
-    const double* rec = mine ? records.data() + order[code] * W : ghosts.data() + (code - owned) * W;
     const auto k = static_cast<Index>(s);
     slotOf[code] = k;
-    key_[s] = static_cast<Index>(rec[0]);
-    id_[s] = static_cast<Index>(rec[1]);
-    owned_[s] = mine;
-    if (mine) ownedSlots_.push_back(k);
+    mine[s] = code < owned;
+    if (mine[s]) ownedSlots_.push_back(k);
+    const std::size_t source = mine[s] ? order[code].second : 0;
+    if (mine[s] && source < keptCount) {
+      const Index i = kept[source];
+      key[s] = key_[static_cast<std::size_t>(i)];
+      id[s] = id_[static_cast<std::size_t>(i)];
+      x.col(k) = x_.col(i);
+      v.col(k) = v_.col(i);
+      vp.col(k) = vp_.col(i);
+      if (rotation_) {
+        w.col(k) = w_.col(i);
+        wp.col(k) = wp_.col(i);
+        invI[k] = invI_[i];
+      }
+      r[k] = r_[i];
+      invm[k] = invm_[i];
+      if (carryForces_) {
+        f.col(k) = f_.col(i);
+        if (rotation_) tq.col(k) = tq_.col(i);
+      }
+      continue;
+    }
+    const double* rec = mine[s] ? arrival(source) : ghosts.data() + (code - owned) * W;
+    key[s] = static_cast<Index>(rec[0]);
+    id[s] = static_cast<Index>(rec[1]);
     for (int c = 0; c < 3; ++c) {
-      x_(c, k) = rec[kX + c];
-      v_(c, k) = rec[kV + c];
-      vp_(c, k) = rec[kVp + c];
+      x(c, k) = rec[kX + c];
+      v(c, k) = rec[kV + c];
+      vp(c, k) = rec[kVp + c];
     }
     if (rotation_) {
       for (int c = 0; c < 3; ++c) {
-        w_(c, k) = rec[kW + c];
-        wp_(c, k) = rec[kWp + c];
+        w(c, k) = rec[kW + c];
+        wp(c, k) = rec[kWp + c];
       }
-      invI_[k] = rec[rOff + 2];
+      invI[k] = rec[rOff + 2];
     }
-    r_[k] = rec[rOff];
-    invm_[k] = rec[rOff + 1];
+    r[k] = rec[rOff];
+    invm[k] = rec[rOff + 1];
     if (carryForces_) {
-      const int fOff = rOff + (rotation_ ? 3 : 2);
-      for (int c = 0; c < 3; ++c) f_(c, k) = rec[fOff + c];
+      for (int c = 0; c < 3; ++c) f(c, k) = rec[fOff + c];
       if (rotation_) {
-        for (int c = 0; c < 3; ++c) tq_(c, k) = rec[fOff + 3 + c];
+        for (int c = 0; c < 3; ++c) tq(c, k) = rec[fOff + 3 + c];
       }
     }
+  }
+  n_ = n;
+  key_.swap(key);
+  id_.swap(id);
+  owned_.swap(mine);
+  x_.swap(x);
+  v_.swap(v);
+  vp_.swap(vp);
+  f_.swap(f);
+  r_.swap(r);
+  invm_.swap(invm);
+  if (rotation_) {
+    w_.swap(w);
+    wp_.swap(wp);
+    tq_.swap(tq);
+    invI_.swap(invI);
   }
   std::size_t ghostBase = owned;
   for (std::size_t q = 0; q < P; ++q) {
