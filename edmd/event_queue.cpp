@@ -76,6 +76,12 @@ void EventQueue::siftDown(std::size_t k) {
   for (;;) {
     const std::size_t first = kArity * k + 1;
     if (first >= n) break;
+    // The next level's line is one of the four children's child lines; fetch all four while this level's
+    // minimum is found, so that the levels' loads overlap instead of following one another.
+    const std::size_t grand = kArity * first + 1;
+    if (grand < n) {
+      for (std::size_t c = 0; c < kArity; ++c) __builtin_prefetch(heap + std::min(grand + kArity * c, n - 1));
+    }
     std::size_t best = first;
     if (first + kArity <= n) {
       const std::size_t a = first + static_cast<std::size_t>(heap[first + 1].key < heap[first].key);
