@@ -125,18 +125,11 @@ void HardSphereSystem::predict(Index i) {
       const double s0 = r0i + sj.r0;
       const double sd = g * s0;
       const ContactQuadratic q = contactQuadratic(r, u, s0 + sd * clock, sd);
-      // Most pairs cannot beat the horizon H (the best time so far and j's own event). Reject them before
-      // the square root, with a test that does not depend on the sign of b (a coin flip) and is rarely
-      // passed, so its branch is predicted: for an open gap (c > 0) and a >= 0 the first root tau_1 obeys
-      // c / (-b) = 2 tau_1 tau_2 / (tau_1 + tau_2) <= 2 tau_1 (tau_2 >= tau_1 the second root; a = 0:
-      // c / (-b) = 2 tau_1), so tau_1 <= H' implies c <= 2 H' (-b); the factor 2.5 keeps the test
-      // conservative under round-off, so a pair it rejects is one the exact test below rejects too (same
-      // trajectory). For b >= 0 the right side is <= 0 or NaN and the pair is rejected, as it misses. Pairs
-      // with c <= 0 (touching) or a < 0 (growth faster than the approach) take the exact path.
+      // Most pairs cannot beat the horizon (the best time so far and j's own event): rejected before the
+      // square root by a test that is rarely passed, so its branch is predicted (kinematics.hpp).
       const double horizon = std::min(bestTime, events[j].time) - clock;
       const double reach = horizon + 1e-9 * (clock + horizon);
-      const bool candidate = (q.c <= 0.0) | (q.a < 0.0) | (q.c <= 2.5 * reach * -q.b);
-      if (!candidate) continue;
+      if (!mayMeetWithin(q, reach)) continue;
       // pairCollisionDelay() rearranged so that the common case has no data-dependent branch (the sign
       // of b is a coin flip; mispredicting it cost more than the arithmetic). For an open gap (c > 0)
       // the positive root, when there is one, is c / (sqrt(b^2 - a c) - b) in every case; otherwise this
@@ -145,11 +138,10 @@ void HardSphereSystem::predict(Index i) {
       // takes the other, cancellation-free form -(b + sqrt) / a.
       const double root = std::sqrt(q.b * q.b - q.a * q.c);
       const double den = root - q.b;
-      // Most pairs cannot beat the horizon; in the common case (open gap, no growth root) reject them
-      // without the division: tau = c / den < H <=> c < H den for den > 0 (NaN and den <= 0 fail, as
+      // The exact test for the common case (open gap, no growth root), without the division: tau = c / den < H <=> c < H den for den > 0 (NaN and den <= 0 fail, as
       // the exact test below would). The margin 1e-9 (clock + H) makes the shortcut conservative, so
       // the accepted pair and its time are exactly those of the full computation.
-      if (q.c > 0.0 && !(q.a < 0.0 && q.b >= 0.0) && !(q.c < reach * den)) continue;
+      if (q.c > 0.0 && !(q.a < 0.0 && q.b >= 0.0) && !openGapMeetsWithin(q, root, reach)) continue;
       double tau = q.c / den;
       if (q.a < 0.0 && q.b >= 0.0) [[unlikely]]
         tau = -(q.b + root) / q.a;

@@ -39,6 +39,24 @@ inline ContactQuadratic contactQuadratic(const double r[3], const double u[3], d
   return {uu - sd * sd, ru - s * sd, rr - s * s};
 }
 
+/// Necessary condition, without a square root, for a pair to meet within `reach` (s, the horizon with its
+/// margin): for an open gap (c > 0) and a >= 0, sqrt(b^2 - a c) <= |b|, so the first root tau_1 = c /
+/// (sqrt(b^2 - a c) - b) >= c / (2 |b|) when b < 0, and tau_1 < reach implies c < 2 reach (-b); the factor
+/// 2.5 is room for round-off, so that every pair openGapMeetsWithin() accepts passes this test
+/// (tests/edmd/kinematics_test.cpp, PairPrefilter). For b >= 0 the right side is <= 0 or NaN: rejected, as
+/// such a pair misses. Touching pairs (c <= 0) and a < 0 (growth faster than the approach) always pass.
+/// Written with `|` so that it compiles to one branch that is rarely taken, where the sign of b would be a
+/// coin flip.
+inline bool mayMeetWithin(const ContactQuadratic& q, double reach) {
+  return (q.c <= 0.0) | (q.a < 0.0) | (q.c <= 2.5 * reach * -q.b);
+}
+
+/// The prediction loop's exact acceptance for an open gap without a growth root: tau_1 = c / (root - b) <
+/// reach, written without the division (root = sqrt(b^2 - a c); NaN and root - b <= 0 fail, as they miss).
+inline bool openGapMeetsWithin(const ContactQuadratic& q, double root, double reach) {
+  return q.c < reach * (root - q.b);
+}
+
 /// Rate of change of the surface gap, hdot = (r.u)/|r| - sd (m/s); negative when approaching. The one
 /// expression used both by prediction (for touching pairs) and by the collision rule.
 inline double approachRate(const double r[3], const double u[3], double sd) {

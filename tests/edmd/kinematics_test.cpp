@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <random>
 
 #include "edmd/event_queue.hpp"
@@ -167,6 +169,52 @@ TEST(CollisionImpulse, ReversesSurfaceSpeed) {
   EXPECT_DOUBLE_EQ(collisionImpulse(-3.0, 0.5, 1e-10), 3.0);
   // Grazing: the floor on the separation speed applies.
   EXPECT_DOUBLE_EQ(collisionImpulse(-1e-20, 0.5, 1e-10), 0.5 * (1e-10 + 1e-20));
+}
+
+// The prediction loop rejects pairs with mayMeetWithin() before it takes the square root; the trajectory
+// stays the one of the full computation only if no pair the exact test accepts is rejected. Quadratics of
+// open gaps with a >= 0 over many scales (a = 0, a tiny, gaps of 1e-12 as near jamming, grazing
+// discriminants), horizons at, just above and just below the first root.
+TEST(PairPrefilter, NeverRejectsAPairTheExactTestAccepts) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  auto logUniform = [&](double lo, double hi) { return lo * std::pow(hi / lo, unit(rng)); };
+  std::int64_t accepted = 0, rejectedBoth = 0;
+  for (int n = 0; n < 400000; ++n) {
+    const int shape = n % 4;
+    const double c = logUniform(1e-14, 1e2);
+    const double b = (unit(rng) < 0.8 ? -1.0 : 1.0) * logUniform(1e-10, 1e3);
+    // a = 0 (no relative motion across the line: the bound is tight), tiny, generic, or at the grazing
+    // discriminant b^2 = a c (nextafter either side).
+    double a = 0.0;
+    if (shape == 1) a = logUniform(1e-20, 1e-8) * b * b / c;
+    if (shape == 2) a = logUniform(1e-6, 1.0) * b * b / c;
+    if (shape == 3) a = std::nextafter(b * b / c, unit(rng) < 0.5 ? 0.0 : 1e300);
+    const ContactQuadratic q{a, b, c};
+    const double root = std::sqrt(q.b * q.b - q.a * q.c);
+    const double tau1 = q.c / (root - q.b);  // NaN or <= 0 when the pair misses
+    const double scale = std::isfinite(tau1) && tau1 > 0.0 ? tau1 : logUniform(1e-6, 1e6);
+    const double factors[] = {1.0, 1.0 + 1e-15, 1.0 - 1e-15, 1.0 + 1e-9, 1.0 + 1e-3, 0.5, 2.0, 1e6};
+    for (const double f : factors) {
+      const double reach = scale * f;
+      const bool exact = openGapMeetsWithin(q, root, reach);
+      if (exact) {
+        ++accepted;
+        ASSERT_TRUE(mayMeetWithin(q, reach)) << "a " << a << " b " << b << " c " << c << " reach " << reach;
+      } else {
+        rejectedBoth += mayMeetWithin(q, reach) ? 0 : 1;
+      }
+    }
+  }
+  // Both branches were exercised, and the prefilter does reject (it is not `true`).
+  EXPECT_GT(accepted, 100000);
+  EXPECT_GT(rejectedBoth, 100000);
+  // Touching pairs and growth faster than the approach always go to the exact path.
+  EXPECT_TRUE(mayMeetWithin({1.0, 1.0, 0.0}, 1e-30));
+  EXPECT_TRUE(mayMeetWithin({-1.0, 1.0, 1.0}, 1e-30));
+  // A receding pair with a >= 0 is rejected even for an infinite horizon.
+  EXPECT_FALSE(mayMeetWithin({1.0, 0.5, 1.0}, std::numeric_limits<double>::infinity()));
+  EXPECT_FALSE(mayMeetWithin({1.0, 0.0, 1.0}, std::numeric_limits<double>::infinity()));
 }
 
 TEST(EventQueue, OrdersAndUpdates) {
