@@ -138,9 +138,10 @@ void HardSphereSystem::predict(Index i) {
       // takes the other, cancellation-free form -(b + sqrt) / a.
       const double root = std::sqrt(q.b * q.b - q.a * q.c);
       const double den = root - q.b;
-      // The exact test for the common case (open gap, no growth root), without the division: tau = c / den < H <=> c < H den for den > 0 (NaN and den <= 0 fail, as
-      // the exact test below would). The margin 1e-9 (clock + H) makes the shortcut conservative, so
-      // the accepted pair and its time are exactly those of the full computation.
+      // The exact test for the common case (open gap, no growth root), without the division: tau = c / den
+      // < H <=> c < H den for den > 0 (NaN and den <= 0 fail, as the exact test below would). The margin
+      // 1e-9 (clock + H) makes the shortcut conservative, so the accepted pair and its time are exactly
+      // those of the full computation.
       if (q.c > 0.0 && !(q.a < 0.0 && q.b >= 0.0) && !openGapMeetsWithin(q, root, reach)) continue;
       double tau = q.c / den;
       if (q.a < 0.0 && q.b >= 0.0) [[unlikely]]
