@@ -45,8 +45,8 @@ inline ContactQuadratic contactQuadratic(const double r[3], const double u[3], d
 /// 2.5 is room for round-off, so that every pair openGapMeetsWithin() accepts passes this test
 /// (tests/edmd/kinematics_test.cpp, PairPrefilter). For b >= 0 the right side is <= 0 or NaN: rejected, as
 /// such a pair misses. Touching pairs (c <= 0) and a < 0 (growth faster than the approach) always pass.
-/// Written with `|` so that it compiles to one branch that is rarely taken, where the sign of b would be a
-/// coin flip.
+/// Written with `|`, so that the one branch taken on its result does not depend on the sign of b (a coin
+/// flip) and is rarely taken.
 inline bool mayMeetWithin(const ContactQuadratic& q, double reach) {
   return (q.c <= 0.0) | (q.a < 0.0) | (q.c <= 2.5 * reach * -q.b);
 }

@@ -173,7 +173,7 @@ TEST(CollisionImpulse, ReversesSurfaceSpeed) {
 
 // The prediction loop rejects pairs with mayMeetWithin() before it takes the square root; the trajectory
 // stays the one of the full computation only if no pair the exact test accepts is rejected. Quadratics of
-// open gaps with a >= 0 over many scales (a = 0, a tiny, gaps of 1e-12 as near jamming, grazing
+// open gaps with a >= 0 over many scales (a = 0, a tiny, gaps down to 1e-14 as near jamming, grazing
 // discriminants), horizons at, just above and just below the first root.
 TEST(PairPrefilter, NeverRejectsAPairTheExactTestAccepts) {
   std::mt19937_64 rng(11);
