@@ -9,7 +9,8 @@
 #   POLYDEM_BUILD  a polydem build directory (Release), holding apps/polydem.
 #
 # Settings (environment): N (10000), PHI (0.5), CPP collisions per particle per run (300), ROUNDS (5),
-# CASES (mono; "mono bi1.2" adds a 50:50-by-number binary mixture of size ratio 1.2), SEED (1), CORE for
+# CASES (mono; "bi1.2" is a 50:50-by-number binary mixture of size ratio 1.2, "uvW" uniform volume
+# f(r) ~ r^-3 of size ratio W, e.g. uv10), SEED (1), CORE for
 # `taskset -c` (1), OUT (edmd_vs_peer_<UTC date>), CC (gcc). N, PHI and CASES may be lists ("10000 32000"):
 # every case runs at every N and PHI, one after the other, each with its own start and rounds.
 #
@@ -46,6 +47,16 @@
 # peer's end-of-run report and prints one line `peer-driver: ...` with the counts and times. Everything
 # else (the event calendar and its tuning constants, neighbour lists with shell 1.5, the write event
 # every time unit) is the peer's as published.
+#
+# Wide mixtures and the peer's neighbour limit: the peer keeps each sphere's neighbours in a fixed array of
+# MAXNEIGH = 24 entries (a #define in mdSingle.c) and stops with "Too many neighbors" beyond it; a sphere 10x
+# larger than most has hundreds of neighbours under its rule |r_ij| < 1.5 (r_i + r_j). For every case the
+# script counts, on the start, the largest number of neighbours any sphere has under that rule. Up to 20 the
+# driver above runs (the peer as published); otherwise the script builds a driver from a copy of the peer's
+# folder in $OUT/peer_maxneigh_M/ whose only change is that constant, M = 1.5 x that count + 8 rounded up to
+# a multiple of 8 (the summary names the driver per case). That needs the peer's folder, not a prebuilt
+# driver. The peer's cell list has cells of 1.5 largest diameters, so its list rebuilds cost more the wider
+# the distribution: that is its design, measured as it is.
 #
 # Output in $OUT: runs.csv (one row per run), summary.csv (medians, ratio polydem/peer, pressures and
 # their relative difference), summary.txt (the same, with machine and commands), one folder per case with
@@ -169,6 +180,7 @@ C
   "$CC" $cflags -I"$src" "$OUT/peer_driver.c" -o "$OUT/peer_driver" -lm
   driver=$OUT/peer_driver
   peer_build="$CC $cflags (CFLAGS of $src/Makefile) on $src/mdSingle.c via $OUT/peer_driver.c"
+  PEER_SRC=$src PEER_CFLAGS=$cflags
 elif [ -x "$peer" ]; then
   driver=$(cd "$(dirname "$peer")" && pwd)/$(basename "$peer")
   peer_build="prebuilt driver $driver"
@@ -177,7 +189,8 @@ else
   exit 2
 fi
 
-export N PHI CPP ROUNDS CASES SEED CORE OUT
+export N PHI CPP ROUNDS CASES SEED CORE OUT CC
+export PEER_SRC="${PEER_SRC:-}" PEER_CFLAGS="${PEER_CFLAGS:-}"
 "$py" - "$polydem" "$driver" "$peer_build" <<'PY'
 import csv
 import json
@@ -204,8 +217,16 @@ case_args = {
     "bi1.2": ["--dist", "bi", "--omega", "1.2", "--large-fraction", "0.5", "--fraction-kind", "number"],
 }
 for c in cases:
+    if c.startswith("uv") and c not in case_args:
+        try:
+            omega = float(c[2:])
+        except ValueError:
+            omega = 0.0
+        if not (1.0 < omega < 1e6):
+            sys.exit(f"error: case '{c}': uvW needs a size ratio W > 1 (e.g. uv10)")
+        case_args[c] = ["--dist", "uv", "--omega", c[2:]]
     if c not in case_args:
-        sys.exit(f"error: unknown case '{c}' (known: {' '.join(case_args)})")
+        sys.exit(f"error: unknown case '{c}' (known: mono, bi1.2, uvW with a size ratio W > 1)")
 if rounds < 1 or not counts or min(counts) < 2 or not fractions or not all(0 < f < 0.74 for f in fractions) \
         or not (cpp > 0):
     sys.exit("error: need ROUNDS >= 1, N >= 2, 0 < PHI < 0.74, CPP > 0")
@@ -272,6 +293,53 @@ def write_sph(path, box, particles):
     return scaled
 
 
+def most_peer_neighbours(box, particles):
+    """The largest number of neighbours of any sphere under the peer's rule |r_ij| < 1.5 (r_i + r_j), periodic
+    minimum image (brute force in blocks of rows)."""
+    import numpy as np
+    p = np.asarray(particles, dtype=float)
+    x, r = p[:, :3], p[:, 3]
+    length = np.asarray(box, dtype=float)
+    most = 0
+    for a in range(0, len(p), 256):
+        d = x[a:a + 256, None, :] - x[None, :, :]
+        d -= length * np.round(d / length)
+        reach = 1.5 * (r[a:a + 256, None] + r[None, :])
+        near = (d * d).sum(axis=2) < reach * reach
+        most = max(most, int(near.sum(axis=1).max()) - 1)  # itself
+    return most
+
+
+def peer_driver_for(case, most):
+    """The published driver while the peer's MAXNEIGH (24) holds the start's neighbours with room; otherwise one
+    built from a copy of the peer's folder whose only change is a larger MAXNEIGH (see the header)."""
+    if most <= 20:
+        return driver, "MAXNEIGH 24 (as published)"
+    m = 8 * math.ceil((1.5 * most + 8) / 8)
+    exe = os.path.join(out, f"peer_driver_maxneigh_{m}")
+    if os.path.exists(exe):
+        return exe, f"MAXNEIGH {m} (changed from 24: a sphere of the start has {most} neighbours under the peer's rule)"
+    src, cflags = os.environ["PEER_SRC"], os.environ["PEER_CFLAGS"]
+    if not src:
+        sys.exit(f"error: [{case}] a sphere of the start has {most} neighbours under the peer's rule, more than its "
+                 "MAXNEIGH 24 holds: give the peer's Single/ folder (not a prebuilt driver) so that the script can "
+                 "build a driver with a larger MAXNEIGH")
+    copy = os.path.join(out, f"peer_maxneigh_{m}")
+    os.makedirs(copy, exist_ok=True)
+    for name in os.listdir(src):
+        if name.endswith((".c", ".h")):
+            text = open(os.path.join(src, name)).read()
+            if name == "mdSingle.c":
+                if text.count("#define MAXNEIGH 24\n") != 1:
+                    sys.exit(f"error: {src}/mdSingle.c has no single '#define MAXNEIGH 24' line to change")
+                text = text.replace("#define MAXNEIGH 24\n", f"#define MAXNEIGH {m}\n")
+            open(os.path.join(copy, name), "w").write(text)
+    cmd = [os.environ["CC"]] + cflags.split() + ["-I" + copy, os.path.join(out, "peer_driver.c"), "-o", exe, "-lm"]
+    print(f"[{case}] building a peer driver with MAXNEIGH {m}: {' '.join(cmd)}", flush=True)
+    subprocess.check_call(cmd)
+    return exe, f"MAXNEIGH {m} (changed from 24: a sphere of the start has {most} neighbours under the peer's rule)"
+
+
 def parse_peer(log, volume):
     pstar = None
     drv = None
@@ -306,12 +374,27 @@ def parse_polydem(summary_file):
             "Z": fd["reduced_pressure"], "Pstar": None}
 
 
+def busy_cores(seconds=2.0):
+    """Cores' worth of CPU time used by every process on the machine over the next `seconds` (/proc/stat):
+    what else is running now, unlike the load averages, which still carry runs that ended a minute ago."""
+    def sample():
+        w = open("/proc/stat").readline().split()[1:]
+        ticks = [int(x) for x in w]
+        return sum(ticks), ticks[3] + ticks[4]  # total, idle + iowait
+    t0, i0 = sample()
+    time.sleep(seconds)
+    t1, i1 = sample()
+    total = max(t1 - t0, 1)
+    return (1.0 - (i1 - i0) / total) * (os.cpu_count() or 1)
+
+
 machine = {
     "date": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
     "host": platform.node(),
     "cpu": next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), "?"),
     "cores": os.cpu_count(),
     "load_before": open("/proc/loadavg").read().split()[:3],
+    "busy_before": busy_cores(),
 }
 rows = []
 fields = ["case", "round", "position", "code", "n", "phi", "collisions", "clock", "loop_seconds",
@@ -337,11 +420,13 @@ for case, kind, n, phi in combos:
     target = volume_fraction * (1.0 + 1e-9)
     pd_cmd = [polydem, "jam", "-i", start, "--schedule", "1e-2", "--target-phi", repr(target),
               "--run-collisions", repr(cpp), "--progress", "1e9"]
-    peer_cmd = [driver, sph, repr(cpp)] + ([] if mono else ["volume-mass"])
+    most = most_peer_neighbours(box, particles)
+    case_driver, maxneigh = peer_driver_for(case, most)
+    peer_cmd = [case_driver, sph, repr(cpp)] + ([] if mono else ["volume-mass"])
     # Velocities: seed SEED + round in both codes (each round a new Maxwell-Boltzmann draw from the same
     # positions), so the spread of Z over the rounds shows its statistical error.
     commands[case] = {"start": make, "polydem": pd_cmd + ["--seed", "SEED+R", "--summary-json", "polydem_R.json"],
-                      "peer": peer_cmd + ["seed=SEED+R"]}
+                      "peer": peer_cmd + ["seed=SEED+R"], "maxneigh": maxneigh}
     print(f"[{case}] {len(particles)} spheres, phi {volume_fraction:.6f}, {'mono' if mono else 'mixture'}; "
           f"{rounds} rounds of {cpp:g} collisions per particle", flush=True)
     for r in range(rounds):
@@ -403,14 +488,16 @@ with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
     w.writerows(summaries)
 
 lines = [f"edmd_vs_peer: {machine['date']}, {machine['host']}, {machine['cpu']}, {machine['cores']} cores, "
-         f"load {' '.join(machine['load_before'])} before, {' '.join(machine['load_after'])} after; "
+         f"load {' '.join(machine['load_before'])} before, {' '.join(machine['load_after'])} after (these include "
+         f"this script's own runs); {machine['busy_before']:.2f} cores busy in the 2 s before the first run; "
          f"taskset -c {core}",
          f"peer: {peer_build}",
          f"polydem: {polydem}",
          "collisions per second of the event loop at fixed density (CPU seconds unless polydem_clock says wall); "
          "Z = PV/(NkT)", ""]
-if max(float(x) for x in machine["load_before"][:1] + machine["load_after"][:1]) > 0.5:
-    lines.insert(1, "WARNING: 1-minute load average above 0.5: the machine was not quiet, so these rates are not figures")
+if machine["busy_before"] > 0.2:
+    lines.insert(1, f"WARNING: {machine['busy_before']:.2f} cores were busy before the first run: the machine was not "
+                    "quiet, so these rates are not figures")
 for case, kind, n, phi in combos:
     counts_seen = {int(r["collisions"]) for r in rows if r["case"] == case}
     if len(counts_seen) != 1:
@@ -429,7 +516,7 @@ lines.append("")
 for case, c in commands.items():
     lines.append(f"[{case}] start:   {' '.join(c['start'])}")
     lines.append(f"[{case}] polydem: {' '.join(c['polydem'])}")
-    lines.append(f"[{case}] peer:    {' '.join(c['peer'])}")
+    lines.append(f"[{case}] peer:    {' '.join(c['peer'])}  ({c['maxneigh']})")
 text = "\n".join(lines) + "\n"
 open(os.path.join(out, "summary.txt"), "w").write(text)
 print()
