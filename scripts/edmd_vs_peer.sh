@@ -64,7 +64,7 @@
 set -euo pipefail
 
 usage() {
-  echo "usage: [N=10000 PHI=0.5 CPP=300 ROUNDS=5 CASES='mono bi1.2' CORE=1 OUT=dir] $0 PEER POLYDEM_BUILD" >&2
+  echo "usage: [N=10000 PHI=0.5 CPP=300 ROUNDS=5 CASES='mono bi1.2 uv10' CORE=1 OUT=dir] $0 PEER POLYDEM_BUILD" >&2
   echo "  PEER: the peer's Single/ folder (mdSingle.c, Makefile) or a driver this script built" >&2
   exit 2
 }
