@@ -2,11 +2,14 @@
 """Plot scripts/edmd_vs_peer.sh results: collisions per CPU second of polydem and the peer against N (equal
 spheres) and against size ratio (at one N), medians with the min-max range of the rounds as bars.
 
-usage: /usr/bin/python3 scripts/edmd_vs_peer_plot.py OUT.png [--ratio-n N] [--phi PHI] summary.csv [summary.csv ...]
+usage: /usr/bin/python3 scripts/edmd_vs_peer_plot.py OUT.png [--ratio-n N] [--phi PHI] [--size-cost FILE]
+       summary.csv [summary.csv ...]
 
 Each summary.csv is one written by scripts/edmd_vs_peer.sh. Case names give the size ratio: mono 1, bi1.2 1.2,
 uvW W. The left panel takes the mono rows at PHI (default 0.5) for every N; the right panel the rows at N =
---ratio-n (default 10000) and PHI for every case. Also prints the plotted points as a table.
+--ratio-n (default 10000) and PHI for every case. --size-cost adds to the right panel polydem's rates from a
+summary.csv of scripts/edmd_size_cost.sh (its rows at N = --ratio-n; a separate run, including size ratios the
+peer cannot run), as a separate series. Also prints the plotted points as a table.
 """
 import argparse
 import csv
@@ -30,7 +33,20 @@ def main():
     ap.add_argument("summaries", nargs="+")
     ap.add_argument("--ratio-n", type=int, default=10000)
     ap.add_argument("--phi", type=float, default=0.5)
+    ap.add_argument("--size-cost", help="summary.csv of scripts/edmd_size_cost.sh")
     args = ap.parse_args()
+    own = []
+    if args.size_cost:
+        try:
+            with open(args.size_cost, newline="") as f:
+                own = [r for r in csv.DictReader(f)]
+        except OSError as e:
+            sys.exit(f"error: {args.size_cost}: {e.strerror}")
+        for r in own:
+            for key in ("n", "case", "median", "min", "max"):
+                if key not in r:
+                    sys.exit(f"error: {args.size_cost}: no column '{key}' (not a summary.csv of edmd_size_cost.sh)")
+        own = sorted((r for r in own if int(r["n"]) == args.ratio_n), key=lambda r: size_ratio(r["case"]))
     rows = []
     for path in args.summaries:
         try:
@@ -82,6 +98,14 @@ def main():
         panel(axes[1], by_ratio, [size_ratio(r["case"]) for r in by_ratio],
               "size ratio (1: equal; 1.2: binary 50:50; >= 2: uniform volume)",
               f"N = {args.ratio_n}, phi {args.phi:g}: labels polydem/peer")
+    if own:
+        med = [float(r["median"]) for r in own]
+        axes[1].errorbar([size_ratio(r["case"]) for r in own], med,
+                         yerr=[[m - float(r["min"]) for m, r in zip(med, own)],
+                               [float(r["max"]) - m for m, r in zip(med, own)]],
+                         fmt="^:", capsize=3, color="tab:green", label="polydem, separate run (edmd_size_cost.sh)")
+        axes[1].set_ylim(bottom=min(axes[1].get_ylim()[0], 1e2))
+        axes[1].legend(fontsize=8, loc="lower left")
     fig.tight_layout()
     fig.savefig(args.png, dpi=110)
     print("panel | case | N | polydem | peer | polydem/peer | Z polydem | Z peer | dZ | source")
@@ -90,6 +114,8 @@ def main():
             print(" | ".join([name, r["case"], r["n"], r["polydem_median"], r["peer_median"],
                               r["ratio_polydem_over_peer"], r.get("Z_polydem", ""), r.get("Z_peer", ""),
                               r.get("Z_relative_difference", ""), r["source"]]))
+    for r in own:
+        print(" | ".join(["ratio (polydem only)", r["case"], r["n"], r["median"], "", "", "", "", "", args.size_cost]))
     print(f"wrote {args.png}")
 
 
