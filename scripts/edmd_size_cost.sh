@@ -7,7 +7,7 @@
 # Settings (environment): N ("10000 20000"), OMEGAS ("10 50"), PHI (0.5), CPP collisions per particle per run
 # (300), ROUNDS (5), CORE for `taskset -c` (1).
 #
-# Per N and case (mono and each omega) ONE start, `polydem jam -n N --schedule 1e-2 --target-phi PHI --seed 1
+# Per N, PHI and case (mono and each omega) ONE start, `polydem jam -n N --schedule 1e-2 --target-phi PHI --seed 1
 # [--dist uv --omega W]`, kept in OUT and reused by a later call. Then ROUNDS rounds; in each, every case runs
 # once, one after the other: `jam -i START --schedule 1e-2 --target-phi PHI(1 + 1e-9) --run-collisions CPP
 # --seed ROUND --summary-json`, and its fixed-density collisions per CPU second is recorded. Output in OUT:
@@ -50,6 +50,23 @@ pin = ["taskset", "-c", os.environ["CORE"]]
 cases = ["mono"] + [f"uv{w}" for w in omegas]
 
 
+def write_atomically(name, text):
+    """OUT/name written beside itself and renamed over it: an interrupted call leaves the old file or the new."""
+    path = os.path.join(out, name)
+    with open(path + ".part", "w", newline="") as f:
+        f.write(text)
+    os.replace(path + ".part", path)
+
+
+def csv_text(rows):
+    import io
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+    w.writeheader()
+    w.writerows(rows)
+    return buf.getvalue()
+
+
 def call(cmd, log):
     with open(log, "w") as f:
         code = subprocess.call(pin + cmd, stdout=f, stderr=subprocess.STDOUT)
@@ -60,7 +77,7 @@ def call(cmd, log):
 starts = {}
 for n in counts:
     for c in cases:
-        start = os.path.join(out, f"{c}_n{n}.txt")
+        start = os.path.join(out, f"{c}_n{n}_phi{phi:g}.txt")
         extra = [] if c == "mono" else ["--dist", "uv", "--omega", c[2:]]
         if not os.path.exists(start):
             print(f"start {c} N={n}", flush=True)
@@ -85,10 +102,7 @@ for r in range(1, rounds + 1):
                          "reduced_pressure": fd["reduced_pressure"]})
             print(f"round {r} N={n} {c}: {fd['collisions_per_cpu_second']:.4g} collisions per CPU second, "
                   f"Z {fd['reduced_pressure']:.6g}", flush=True)
-with open(os.path.join(out, "runs.csv"), "w", newline="") as f:
-    w = csv.DictWriter(f, fieldnames=list(rows[0]))
-    w.writeheader()
-    w.writerows(rows)
+write_atomically("runs.csv", csv_text(rows))
 summary = []
 for n in counts:
     rate = {c: [x["collisions_per_cpu_second"] for x in rows if x["n"] == n and x["case"] == c] for c in cases}
@@ -97,14 +111,11 @@ for n in counts:
         med = statistics.median(rate[c])
         summary.append({"n": n, "case": c, "rounds": rounds, "median": f"{med:.4g}", "min": f"{min(rate[c]):.4g}",
                         "max": f"{max(rate[c]):.4g}", "cost_over_mono": f"{mono / med:.3f}"})
-with open(os.path.join(out, "summary.csv"), "w", newline="") as f:
-    w = csv.DictWriter(f, fieldnames=list(summary[0]))
-    w.writeheader()
-    w.writerows(summary)
+write_atomically("summary.csv", csv_text(summary))
 lines = [f"edmd_size_cost: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {polydem}, phi {phi:g}, "
          f"{cpp:g} collisions per particle per run, {rounds} rounds, taskset -c {os.environ['CORE']}",
          "N | case | collisions per CPU second, median (min-max) | cost per collision / mono"]
 lines += [f"{s['n']} | {s['case']} | {s['median']} ({s['min']}-{s['max']}) | {s['cost_over_mono']}" for s in summary]
-open(os.path.join(out, "summary.txt"), "w").write("\n".join(lines) + "\n")
+write_atomically("summary.txt", "\n".join(lines) + "\n")
 print("\n".join(lines))
 PY

@@ -295,16 +295,30 @@ def write_sph(path, box, particles):
 
 def most_peer_neighbours(box, particles):
     """The largest number of neighbours of any sphere under the peer's rule |r_ij| < 1.5 (r_i + r_j), periodic
-    minimum image (brute force in blocks of rows)."""
+    minimum image: candidate pairs within 3 r_max from a periodic k-d tree (Debian's python3-scipy), else brute
+    force in blocks of rows small enough to keep the scratch arrays near 100 MB."""
     import numpy as np
     p = np.asarray(particles, dtype=float)
     x, r = p[:, :3], p[:, 3]
     length = np.asarray(box, dtype=float)
-    most = 0
-    for a in range(0, len(p), 256):
-        d = x[a:a + 256, None, :] - x[None, :, :]
+    try:
+        from scipy.spatial import cKDTree
+    except ImportError:
+        cKDTree = None
+    if cKDTree is not None:
+        pairs = cKDTree(np.mod(x, length), boxsize=length).query_pairs(3.0 * r.max(), output_type="ndarray")
+        d = x[pairs[:, 0]] - x[pairs[:, 1]]
         d -= length * np.round(d / length)
-        reach = 1.5 * (r[a:a + 256, None] + r[None, :])
+        reach = 1.5 * (r[pairs[:, 0]] + r[pairs[:, 1]])
+        near = pairs[(d * d).sum(axis=1) < reach * reach]
+        counts = np.bincount(near.ravel(), minlength=len(p))
+        return int(counts.max()) if len(p) else 0
+    most = 0
+    rows = max(1, int(4e6 // max(len(p), 1)))
+    for a in range(0, len(p), rows):
+        d = x[a:a + rows, None, :] - x[None, :, :]
+        d -= length * np.round(d / length)
+        reach = 1.5 * (r[a:a + rows, None] + r[None, :])
         near = (d * d).sum(axis=2) < reach * reach
         most = max(most, int(near.sum(axis=1).max()) - 1)  # itself
     return most
@@ -318,9 +332,10 @@ def peer_driver_for(case, most):
             return driver, f"a prebuilt driver: its MAXNEIGH is whatever it was built with; the start needs {most}"
         return driver, "MAXNEIGH 24 (as published)"
     m = 8 * math.ceil((1.5 * most + 8) / 8)
+    label = f"MAXNEIGH {m} (changed from 24: a sphere of the start has {most} neighbours under the peer's rule)"
     exe = os.path.join(out, f"peer_driver_maxneigh_{m}")
     if os.path.exists(exe):
-        return exe, f"MAXNEIGH {m} (changed from 24: a sphere of the start has {most} neighbours under the peer's rule)"
+        return exe, label
     src, cflags = os.environ["PEER_SRC"], os.environ["PEER_CFLAGS"]
     if not src:
         sys.exit(f"error: [{case}] a sphere of the start has {most} neighbours under the peer's rule, more than its "
@@ -336,10 +351,14 @@ def peer_driver_for(case, most):
                     sys.exit(f"error: {src}/mdSingle.c has no single '#define MAXNEIGH 24' line to change")
                 text = text.replace("#define MAXNEIGH 24\n", f"#define MAXNEIGH {m}\n")
             open(os.path.join(copy, name), "w").write(text)
-    cmd = [os.environ["CC"]] + cflags.split() + ["-I" + copy, os.path.join(out, "peer_driver.c"), "-o", exe, "-lm"]
+    # Compiled under a temporary name and renamed: a failed or interrupted build leaves no driver to reuse.
+    cmd = [os.environ["CC"]] + cflags.split() + ["-I" + copy, os.path.join(out, "peer_driver.c"), "-o",
+                                                 exe + ".part", "-lm"]
     print(f"[{case}] building a peer driver with MAXNEIGH {m}: {' '.join(cmd)}", flush=True)
-    subprocess.check_call(cmd)
-    return exe, f"MAXNEIGH {m} (changed from 24: a sphere of the start has {most} neighbours under the peer's rule)"
+    if subprocess.call(cmd) != 0:
+        sys.exit(f"error: [{case}] building the peer with MAXNEIGH {m} failed: {' '.join(cmd)}")
+    os.replace(exe + ".part", exe)
+    return exe, label
 
 
 def parse_peer(log, volume):

@@ -13,6 +13,7 @@ peer cannot run), as a separate series. Also prints the plotted points as a tabl
 """
 import argparse
 import csv
+import os
 import sys
 
 
@@ -27,6 +28,30 @@ def size_ratio(case):
     raise ValueError(f"case {case}: unknown kind {kind}")
 
 
+def read_rows(path, keys, writer):
+    """The rows of a summary.csv that `writer` wrote, each with its file as "source"; exits on a missing file,
+    a missing column or a value that is not a number where one is needed."""
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        sys.exit(f"error: {path}: {e.strerror}")
+    for line, r in enumerate(rows, start=2):
+        for key in keys:
+            if r.get(key) is None:
+                sys.exit(f"error: {path}: no column '{key}' (not a summary.csv of {writer})")
+        try:
+            int(r["n"])
+            size_ratio(r["case"])
+            for key in keys:
+                if key not in ("n", "case"):
+                    float(r[key])
+        except ValueError as e:
+            sys.exit(f"error: {path}, line {line}: {e}")
+        r["source"] = path
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("png")
@@ -37,29 +62,11 @@ def main():
     args = ap.parse_args()
     own = []
     if args.size_cost:
-        try:
-            with open(args.size_cost, newline="") as f:
-                own = [r for r in csv.DictReader(f)]
-        except OSError as e:
-            sys.exit(f"error: {args.size_cost}: {e.strerror}")
-        for r in own:
-            for key in ("n", "case", "median", "min", "max"):
-                if key not in r:
-                    sys.exit(f"error: {args.size_cost}: no column '{key}' (not a summary.csv of edmd_size_cost.sh)")
+        own = read_rows(args.size_cost, ("n", "case", "median", "min", "max"), "scripts/edmd_size_cost.sh")
         own = sorted((r for r in own if int(r["n"]) == args.ratio_n), key=lambda r: size_ratio(r["case"]))
     rows = []
     for path in args.summaries:
-        try:
-            with open(path, newline="") as f:
-                found = list(csv.DictReader(f))
-        except OSError as e:
-            sys.exit(f"error: {path}: {e.strerror}")
-        for r in found:
-            for key in ("case", "n", "phi", "polydem_median", "peer_median"):
-                if key not in r:
-                    sys.exit(f"error: {path}: no column '{key}' (not a summary.csv of scripts/edmd_vs_peer.sh)")
-            r["source"] = path
-            rows.append(r)
+        rows += read_rows(path, ("case", "n", "phi", "polydem_median", "peer_median"), "scripts/edmd_vs_peer.sh")
     near = [r for r in rows if abs(float(r["phi"]) - args.phi) < 1e-6]
     by_n = sorted((r for r in near if r["case"].startswith("mono_")), key=lambda r: int(r["n"]))
     by_ratio = sorted((r for r in near if int(r["n"]) == args.ratio_n), key=lambda r: size_ratio(r["case"]))
@@ -107,7 +114,10 @@ def main():
         axes[1].set_ylim(bottom=min(axes[1].get_ylim()[0], 1e2))
         axes[1].legend(fontsize=8, loc="lower left")
     fig.tight_layout()
-    fig.savefig(args.png, dpi=110)
+    # Written beside the target and renamed over it, so an interrupted run leaves no half-written image.
+    part = args.png + ".part.png"
+    fig.savefig(part, dpi=110)
+    os.replace(part, args.png)
     print("panel | case | N | polydem | peer | polydem/peer | Z polydem | Z peer | dZ | source")
     for name, data in (("N", by_n), ("ratio", by_ratio)):
         for r in data:
