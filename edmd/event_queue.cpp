@@ -1,12 +1,18 @@
 #include "edmd/event_queue.hpp"
 
 #include <algorithm>
-#include <cstdint>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
 namespace polydem::edmd {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Buckets per kHeapTarget keys: the buckets span about this many update intervals of every particle.
+constexpr double kSpan = 4.0;
+}  // namespace
 
 void EventQueue::reset(Index count) {
   // Node k sits at byte 16 (k + 3) from a 64-byte boundary: children 4k+1..4k+4 start at 64 (k + 1).
@@ -14,65 +20,119 @@ void EventQueue::reset(Index count) {
   const auto base = reinterpret_cast<std::uintptr_t>(storage_.data());
   const std::uintptr_t aligned = (base + 63) & ~std::uintptr_t{63};
   offset_ = (aligned + 48 - base) / sizeof(Node);  // < 7 nodes (malloc aligns to at least 16 bytes)
-  Node* const heap = nodes();
+  const std::size_t n = static_cast<std::size_t>(count);
   size_ = count;
-  position_.resize(static_cast<std::size_t>(count));
-  for (Index i = 0; i < count; ++i) {
-    heap[i] = {std::numeric_limits<double>::infinity(), i};
-    position_[static_cast<std::size_t>(i)] = i;
+  heapSize_ = count;
+  key_.assign(n, kInf);
+  slot_.resize(n);
+  next_.assign(n, -1);
+  prev_.assign(n, -1);
+  head_.assign(1, -1);
+  buckets_ = 0;
+  current_ = 0;
+  spread_ = false;
+  base_ = 0.0;
+  width_ = 0.0;
+  inverseWidth_ = 0.0;
+  updates_ = 0;
+  tuneTime_ = 0.0;
+  Node* const heap = nodes();
+  for (Index i = 0; i < count; ++i) {  // equal keys in index order: a valid heap
+    heap[i] = {kInf, i};
+    slot_[static_cast<std::size_t>(i)] = i;
   }
 }
 
 void EventQueue::assign(const std::vector<double>& keys) {
+  const double width = width_;
+  const std::int64_t rebuilds = rebuilds_;
   reset(static_cast<Index>(keys.size()));
-  Node* const heap = nodes();
-  for (std::size_t i = 0; i < keys.size(); ++i) heap[i].key = keys[i];
-  for (std::size_t k = static_cast<std::size_t>(size_) / kArity + 1; k-- > 0;) siftDown(k);
+  std::copy(keys.begin(), keys.end(), key_.begin());
+  if (width > 0.0) {
+    rebuild(width);
+  } else {
+    Node* const heap = nodes();
+    for (std::size_t i = 0; i < keys.size(); ++i) heap[i].key = keys[i];
+    heapify();
+  }
+  rebuilds_ = rebuilds;
+  tuneTime_ = size_ > 0 ? topKey() : 0.0;
 }
 
-Index EventQueue::runnerUp() const {
-  const Node* const heap = nodes();
-  const std::size_t n = static_cast<std::size_t>(size_);
-  if (n <= 1) return heap[0].particle;
-  std::size_t best = 1;
-  for (std::size_t c = 2; c <= std::min<std::size_t>(kArity, n - 1); ++c)
-    best = heap[c].key < heap[best].key ? c : best;
-  return heap[best].particle;
+std::int64_t EventQueue::placeOf(double key) const {
+  if (!spread_) return -1;
+  if (!(key < kInf)) return buckets_;
+  const double d = (key - base_) * inverseWidth_;  // monotone in key: the buckets keep the order
+  if (d < static_cast<double>(current_ + 1)) return -1;
+  if (d < static_cast<double>(buckets_)) return static_cast<std::int64_t>(d);
+  return buckets_;
+}
+
+void EventQueue::place(Index particle) {
+  const std::int64_t to = placeOf(key_[static_cast<std::size_t>(particle)]);
+  if (to >= 0) {
+    listPush(to, particle);
+    return;
+  }
+  const std::size_t k = static_cast<std::size_t>(heapSize_++);
+  nodes()[k] = Node{key_[static_cast<std::size_t>(particle)], particle};
+  slot_[static_cast<std::size_t>(particle)] = static_cast<Index>(k);
 }
 
 void EventQueue::update(Index particle, double key) {
-  Node* const heap = nodes();
-  const std::size_t k = static_cast<std::size_t>(position_[static_cast<std::size_t>(particle)]);
-  const double old = heap[k].key;
-  heap[k].key = key;
-  if (key < old) {
-    siftUp(k);
-  } else if (key > old) {
-    siftDown(k);
+  const std::size_t p = static_cast<std::size_t>(particle);
+  key_[p] = key;
+  const std::int64_t to = placeOf(key);
+  const Index s = slot_[p];
+  if (s >= 0) {
+    if (to < 0) {
+      Node& node = nodes()[s];
+      const double old = node.key;
+      node.key = key;
+      if (key < old) {
+        siftUp(static_cast<std::size_t>(s));
+      } else if (key > old) {
+        siftDown(static_cast<std::size_t>(s));
+      }
+    } else {
+      heapErase(static_cast<std::size_t>(s));
+      listPush(to, particle);
+      if (heapSize_ == 0) refill();
+    }
+  } else {
+    listErase(-s - 1, particle);
+    if (to < 0) {
+      heapPush(particle);
+    } else {
+      listPush(to, particle);
+    }
   }
+  if (++updates_ >= size_) tune();
 }
 
-// A 4-ary heap: half the levels of a binary one, and the four children of a node share a cache line
-// (16-byte nodes), so a sift touches fewer lines; the smallest child is picked without branches (which
-// child wins is unpredictable, and a mispredicted branch per level was a tenth of the event loop).
+// ---------------------------------------------------------------------------------------------------
+// The heap of near keys. A 4-ary heap: half the levels of a binary one, and the four children of a node
+// share a cache line, so a sift touches fewer lines; the smallest child is picked without branches
+// (which child wins is unpredictable).
+
 void EventQueue::siftUp(std::size_t k) {
   Node* const heap = nodes();
   const Node node = heap[k];
   while (k > 0) {
     const std::size_t parent = (k - 1) / kArity;
-    if (!(node.key < heap[parent].key)) break;
+    if (!before(node, heap[parent])) break;
     heap[k] = heap[parent];
-    position_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
+    slot_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
     k = parent;
   }
   heap[k] = node;
-  position_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
+  slot_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
 }
 
 void EventQueue::siftDown(std::size_t k) {
   Node* const heap = nodes();
   const Node node = heap[k];
-  const std::size_t n = static_cast<std::size_t>(size_);
+  const std::size_t n = static_cast<std::size_t>(heapSize_);
   for (;;) {
     const std::size_t first = kArity * k + 1;
     if (first >= n) break;
@@ -84,32 +144,163 @@ void EventQueue::siftDown(std::size_t k) {
     }
     std::size_t best = first;
     if (first + kArity <= n) {
-      const std::size_t a = first + static_cast<std::size_t>(heap[first + 1].key < heap[first].key);
-      const std::size_t b = first + 2 + static_cast<std::size_t>(heap[first + 3].key < heap[first + 2].key);
-      best = heap[b].key < heap[a].key ? b : a;
+      const std::size_t a = first + static_cast<std::size_t>(before(heap[first + 1], heap[first]));
+      const std::size_t b = first + 2 + static_cast<std::size_t>(before(heap[first + 3], heap[first + 2]));
+      best = before(heap[b], heap[a]) ? b : a;
     } else {
-      for (std::size_t c = first + 1; c < n; ++c) best = heap[c].key < heap[best].key ? c : best;
+      for (std::size_t c = first + 1; c < n; ++c) best = before(heap[c], heap[best]) ? c : best;
     }
-    if (!(heap[best].key < node.key)) break;
+    if (!before(heap[best], node)) break;
     heap[k] = heap[best];
-    position_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
+    slot_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
     k = best;
   }
   heap[k] = node;
-  position_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
+  slot_[static_cast<std::size_t>(node.particle)] = static_cast<Index>(k);
+}
+
+void EventQueue::heapPush(Index particle) {
+  const std::size_t k = static_cast<std::size_t>(heapSize_++);
+  nodes()[k] = Node{key_[static_cast<std::size_t>(particle)], particle};
+  siftUp(k);
+}
+
+void EventQueue::heapErase(std::size_t k) {
+  Node* const heap = nodes();
+  const std::size_t last = static_cast<std::size_t>(--heapSize_);
+  if (k == last) return;
+  heap[k] = heap[last];
+  if (k > 0 && before(heap[k], heap[(k - 1) / kArity])) {
+    siftUp(k);
+  } else {
+    siftDown(k);
+  }
+}
+
+void EventQueue::heapify() {
+  const std::size_t n = static_cast<std::size_t>(heapSize_);
+  Node* const heap = nodes();
+  for (std::size_t k = 0; k < n; ++k) slot_[static_cast<std::size_t>(heap[k].particle)] = static_cast<Index>(k);
+  if (n < 2) return;
+  for (std::size_t k = (n - 2) / kArity + 1; k-- > 0;) siftDown(k);
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Bucket lists and their hand-over to the heap
+
+void EventQueue::listPush(std::int64_t list, Index particle) {
+  const std::size_t p = static_cast<std::size_t>(particle);
+  Index& head = head_[static_cast<std::size_t>(list)];
+  next_[p] = head;
+  prev_[p] = -1;
+  if (head >= 0) prev_[static_cast<std::size_t>(head)] = particle;
+  head = particle;
+  slot_[p] = static_cast<Index>(-list - 1);
+}
+
+void EventQueue::listErase(std::int64_t list, Index particle) {
+  const std::size_t p = static_cast<std::size_t>(particle);
+  const Index before = prev_[p], after = next_[p];
+  if (before >= 0) {
+    next_[static_cast<std::size_t>(before)] = after;
+  } else {
+    head_[static_cast<std::size_t>(list)] = after;
+  }
+  if (after >= 0) prev_[static_cast<std::size_t>(after)] = before;
+}
+
+void EventQueue::refill() {
+  while (heapSize_ == 0) {
+    while (++current_ < buckets_ && head_[static_cast<std::size_t>(current_)] < 0) {
+    }
+    if (current_ < buckets_) {
+      Node* const heap = nodes();
+      for (Index p = head_[static_cast<std::size_t>(current_)]; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
+        heap[heapSize_++] = Node{key_[static_cast<std::size_t>(p)], p};
+      }
+      head_[static_cast<std::size_t>(current_)] = -1;
+      heapify();
+      return;
+    }
+    // The buckets are used up: spread the overflow over a new range from its earliest finite key.
+    const std::size_t overflow = static_cast<std::size_t>(buckets_);
+    Index first = head_[overflow];
+    if (first < 0) return;  // nothing left (no particles)
+    double earliest = kInf;
+    for (Index p = first; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
+      earliest = std::min(earliest, key_[static_cast<std::size_t>(p)]);
+    }
+    head_[overflow] = -1;
+    if (earliest == kInf) spread_ = false;  // only +inf left: they all go to the heap
+    base_ = earliest;
+    current_ = 0;
+    for (Index p = first; p >= 0;) {
+      const Index after = next_[static_cast<std::size_t>(p)];
+      place(p);
+      p = after;
+    }
+    heapify();
+  }
+}
+
+void EventQueue::rebuild(double width) {
+  ++rebuilds_;
+  width_ = width;
+  inverseWidth_ = 1.0 / width;
+  const double lists = std::ceil(kSpan * static_cast<double>(size_) / kHeapTarget);
+  buckets_ = static_cast<std::int64_t>(std::max(16.0, lists));
+  head_.assign(static_cast<std::size_t>(buckets_) + 1, -1);
+  double earliest = kInf;
+  for (std::size_t p = 0; p < static_cast<std::size_t>(size_); ++p) earliest = std::min(earliest, key_[p]);
+  spread_ = earliest < kInf;
+  base_ = spread_ ? earliest : 0.0;
+  current_ = 0;
+  heapSize_ = 0;
+  for (Index p = 0; p < size_; ++p) place(p);
+  heapify();
+  if (heapSize_ == 0) refill();
+}
+
+void EventQueue::tune() {
+  const double now = topKey();
+  const double span = now - tuneTime_;
+  if (span > 0.0 && span < kInf) {
+    const double width = kHeapTarget * span / static_cast<double>(updates_);
+    if (!spread_ || width > 2.0 * width_ || width < 0.5 * width_) rebuild(width);
+  }
+  updates_ = 0;
+  tuneTime_ = topKey();
 }
 
 void EventQueue::validate() const {
   const Node* const heap = nodes();
-  for (std::size_t k = 0; k < static_cast<std::size_t>(size_); ++k) {
-    if (position_[static_cast<std::size_t>(heap[k].particle)] != static_cast<Index>(k)) {
-      throw std::logic_error("event queue: position index of particle " + std::to_string(heap[k].particle) +
-                             " is stale");
+  const auto fail = [](const std::string& what) { throw std::logic_error("event queue: " + what); };
+  if (size_ > 0 && heapSize_ == 0) fail("the heap is empty while keys are queued");
+  for (std::size_t k = 0; k < static_cast<std::size_t>(heapSize_); ++k) {
+    const Index p = heap[k].particle;
+    if (slot_[static_cast<std::size_t>(p)] != static_cast<Index>(k)) {
+      fail("position index of particle " + std::to_string(p) + " is stale");
     }
-    if (k > 0 && heap[k].key < heap[(k - 1) / kArity].key) {
-      throw std::logic_error("event queue: heap order violated at node " + std::to_string(k));
+    if (heap[k].key != key_[static_cast<std::size_t>(p)] && !(std::isnan(heap[k].key))) {
+      fail("heap key of particle " + std::to_string(p) + " differs from its key");
+    }
+    if (k > 0 && before(heap[k], heap[(k - 1) / kArity])) fail("heap order violated at node " + std::to_string(k));
+    if (placeOf(heap[k].key) >= 0) fail("particle " + std::to_string(p) + " is in the heap but belongs in a list");
+  }
+  Index listed = 0;
+  for (std::int64_t list = 0; list <= (spread_ ? buckets_ : -1); ++list) {
+    Index last = -1;
+    for (Index p = head_[static_cast<std::size_t>(list)]; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
+      const std::size_t up = static_cast<std::size_t>(p);
+      if (++listed > size_) fail("a bucket list has a cycle");
+      if (slot_[up] != -list - 1) fail("particle " + std::to_string(p) + " is linked into the wrong list");
+      if (prev_[up] != last) fail("backward link of particle " + std::to_string(p) + " is stale");
+      if (placeOf(key_[up]) != list) fail("particle " + std::to_string(p) + " is in the wrong bucket");
+      last = p;
     }
   }
+  if (listed + heapSize_ != size_)
+    fail("keys lost: " + std::to_string(listed + heapSize_) + " of " + std::to_string(size_));
 }
 
 }  // namespace polydem::edmd

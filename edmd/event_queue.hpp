@@ -1,13 +1,25 @@
 #pragma once
-// Indexed (4-ary) min-heap holding exactly one key (event time) per particle, Donev 2006
-// (thesis), §3.4.1 and Algorithm 2, step 9: heap size = N, operations top, and
-// update of an arbitrary particle's key (the partner of a collision, the claimed particle of a
-// prediction) in O(log N). Nodes carry (key, particle) side by side so sifting touches one array, and
-// the array starts 3 nodes before a 64-byte boundary so that the 4 children of every node (16-byte
-// nodes 4k+1..4k+4) fill exactly one cache line: a sift level is one line, not two.
-// Rejected: a calendar queue (faster for huge N, but its bucket width must track a collision rate that
-// spans twelve decades during a compression) and several events per particle (Donev 2006, §3.4.1).
+// The event calendar: one key (event time) per particle, Donev 2006 (thesis), §3.4.1 and Algorithm 2,
+// step 9, with the near future in a small heap and the rest in time buckets (the layout of the bounded
+// event calendars of Paul, J. Comput. Phys. 221 (2007) 615, used by Smallenburg's EDMD codes).
+//
+// Keys at or before the end of the current bucket sit in an indexed 4-ary min-heap (nodes (key, particle)
+// side by side; the array starts 3 nodes before a 64-byte boundary so that the 4 children of a node fill
+// one cache line); later keys wait, unsorted, in doubly linked bucket lists of width w, and keys beyond
+// the last bucket (and +inf) in an overflow list. When the heap runs empty the next non-empty bucket moves
+// into it; when the buckets run out the overflow is spread over a new range. The bucket index
+// floor((t - base) / w) is monotone in t, so every heap key precedes every bucketed key and the pop order
+// is exactly that of one heap ordered by (key, particle): ties go to the lower particle index, so the
+// order does not depend on the history of the structure (the test compares it with an ordered set).
+//
+// The width follows the measured rate of key updates: every `count` updates it is set to about
+// kHeapTarget / rate (the heap then holds some tens of keys) when it is off by more than 2x, by a rebuild
+// in O(N); a compression changes the collision rate by decades, a little at a time. Until the first
+// measurement (and whenever no time has passed) every finite key stays in the heap, which is the plain
+// heap of before.
+#include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "core/huge_pages.hpp"
@@ -19,21 +31,42 @@ class EventQueue {
  public:
   /// `count` particles, every key +inf. O(N).
   void reset(Index count);
-  /// Rebuild from the given keys (one per particle, same count as reset). O(N).
+  /// Rebuild from the given keys (one per particle). O(N). Keeps the bucket width measured so far.
   void assign(const std::vector<double>& keys);
   Index size() const { return size_; }
   bool empty() const { return size_ == 0; }
-  /// Particle with the smallest key (ties: any). Precondition: not empty.
+  /// Particle with the smallest key (ties: the lowest index). Precondition: not empty.
   Index top() const { return nodes()[0].particle; }
   double topKey() const { return nodes()[0].key; }
-  /// The particle most likely to be on top after the top's key grows: the smallest child of the root
-  /// (the top itself if it has none). O(1); a prefetch hint for the event loop.
-  Index runnerUp() const;
-  double key(Index particle) const { return nodes()[static_cast<std::size_t>(position_[particle])].key; }
-  /// Set a particle's key and restore the heap order. O(log N).
+  /// The particle most likely to be on top after the top's key grows: the smallest child of the heap's
+  /// root other than `skip` (the top's collision partner, whose key grows too; the top itself if there is
+  /// no such child). O(1); a prefetch hint for the event loop.
+  Index runnerUp(Index skip = -1) const {
+    const Node* const heap = nodes();
+    const std::size_t last = std::min<std::size_t>(kArity, heapSize_ > 0 ? static_cast<std::size_t>(heapSize_) - 1 : 0);
+    std::size_t best = 0;
+    for (std::size_t c = 1; c <= last; ++c) {
+      const bool better = heap[c].particle != skip && (best == 0 || before(heap[c], heap[best]));
+      best = better ? c : best;
+    }
+    return heap[best].particle;
+  }
+  double key(Index particle) const { return key_[static_cast<std::size_t>(particle)]; }
+  /// Set a particle's key and restore the order. O(1) for a key beyond the current bucket, O(log h)
+  /// in the heap of h near keys.
   void update(Index particle, double key);
-  /// Heap order and position index consistent; throws std::logic_error (tests).
+  /// Heap order, bucket membership, links and the position index consistent; throws std::logic_error.
   void validate() const;
+
+  /// Bucket width now (0: no width measured yet, every finite key in the heap).
+  double bucketWidth() const { return width_; }
+  /// Keys in the heap now.
+  Index heapSize() const { return heapSize_; }
+  /// Width rebuilds so far (tests, counters).
+  std::int64_t rebuilds() const { return rebuilds_; }
+
+  /// Keys the heap is meant to hold on average.
+  static constexpr double kHeapTarget = 48.0;
 
  private:
   static constexpr std::size_t kArity = 4;
@@ -41,16 +74,41 @@ class EventQueue {
     double key;
     Index particle;
   };
+  // (key, particle) lexicographic, without branches on the result.
+  static bool before(const Node& a, const Node& b) {
+    return (a.key < b.key) | ((a.key == b.key) & (a.particle < b.particle));
+  }
+  // -1: the heap; 0..buckets-1: that bucket; buckets: the overflow.
+  std::int64_t placeOf(double key) const;
+  void place(Index particle);  // by key_, into a list or appended to the heap (heap order not restored)
   void siftUp(std::size_t k);
   void siftDown(std::size_t k);
-  // Heap node k is storage_[offset_ + k]; offset_ puts node 0 at 48 mod 64 bytes (a copied queue stays
-  // correct, only possibly misaligned).
+  void heapPush(Index particle);
+  void heapErase(std::size_t k);
+  void heapify();
+  void listPush(std::int64_t list, Index particle);
+  void listErase(std::int64_t list, Index particle);
+  void refill();  // the heap is empty: move the next non-empty bucket (or the spread overflow) into it
+  void rebuild(double width);
+  void tune();
+
   Node* nodes() { return storage_.data() + offset_; }
   const Node* nodes() const { return storage_.data() + offset_; }
   LargeVector<Node> storage_;
   std::size_t offset_ = 0;
   Index size_ = 0;
-  LargeVector<Index> position_;
+  Index heapSize_ = 0;
+  LargeVector<double> key_;
+  // slot_[p] >= 0: heap position; < 0: list -slot_[p] - 1 (a bucket, or the overflow = buckets_).
+  LargeVector<Index> slot_;
+  LargeVector<Index> next_, prev_;
+  std::vector<Index> head_;
+  std::int64_t buckets_ = 0;  // lists 0..buckets_-1 are buckets, list buckets_ the overflow
+  std::int64_t current_ = 0;  // keys with floor((t - base_) / width_) <= current_ are in the heap
+  bool spread_ = false;       // false: every key (+inf too) in the heap, no lists in use
+  double base_ = 0.0, width_ = 0.0, inverseWidth_ = 0.0;
+  std::int64_t updates_ = 0, rebuilds_ = 0;
+  double tuneTime_ = 0.0;
 };
 
 }  // namespace polydem::edmd

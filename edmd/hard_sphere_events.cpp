@@ -288,7 +288,7 @@ void HardSphereSystem::process(Index i) {
   // root) gets its event, state and neighbourhood fetched now, one event ahead; i's neighbourhood was
   // fetched that way, so its list can be requested at once; a collision partner's state and
   // neighbourhood are requested before the collision arithmetic, and its list before i predicts.
-  const Index next = queue_.runnerUp();
+  const Index next = queue_.runnerUp(e.kind == EventKind::Collision ? e.partner : -1);
   __builtin_prefetch(&event_[static_cast<std::size_t>(next)]);
   __builtin_prefetch(&state_[static_cast<std::size_t>(next)]);
   __builtin_prefetch(&hood_[static_cast<std::size_t>(next)]);

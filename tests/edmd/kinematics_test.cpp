@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <set>
+#include <utility>
 
 #include "edmd/event_queue.hpp"
 
@@ -234,6 +236,78 @@ TEST(EventQueue, OrdersAndUpdates) {
     ASSERT_EQ(q.key(q.top()), *smallest);
   }
   q.validate();
+}
+
+// The calendar (heap of near keys + time buckets + overflow) pops in exactly the order of one set ordered by
+// (key, particle), through ties, +inf keys, width rebuilds, rate changes of 10^4, refills past empty buckets,
+// re-spreading of the overflow and assign(): the event loop's use (pop the top, give it a later key, move
+// a few other particles' keys) with a reference checked at every step.
+TEST(EventQueue, CalendarPopsInKeyThenIndexOrder) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  for (const Index n : {1, 2, 7, 300, 2000}) {
+    EventQueue q;
+    std::mt19937_64 rng(11 + static_cast<std::uint64_t>(n));
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    std::vector<double> keys(static_cast<std::size_t>(n), 0.0);
+    std::set<std::pair<double, Index>> order;
+    const auto resetAll = [&](double now) {
+      std::fill(keys.begin(), keys.end(), now);  // ties for every particle, as after a synchronisation
+      q.assign(keys);
+      order.clear();
+      for (Index i = 0; i < n; ++i) order.insert({now, i});
+    };
+    const auto set = [&](Index i, double key) {
+      order.erase({keys[static_cast<std::size_t>(i)], i});
+      keys[static_cast<std::size_t>(i)] = key;
+      order.insert({key, i});
+      q.update(i, key);
+    };
+    q.reset(n);
+    for (Index i = 0; i < n; ++i) order.insert({kInf, i});
+    resetAll(0.0);
+    double scale = 1.0;
+    std::int64_t steps = 0;
+    for (int phase = 0; phase < 6; ++phase) {
+      scale = phase % 2 == 0 ? scale * 1e-4 : scale * 1e3;  // the event rate jumps by decades
+      for (int s = 0; s < 40 * n + 200; ++s, ++steps) {
+        ASSERT_EQ(q.top(), order.begin()->second) << "n " << n << " step " << steps;
+        ASSERT_EQ(q.topKey(), order.begin()->first);
+        ASSERT_EQ(q.key(q.top()), order.begin()->first);
+        const double now = order.begin()->first;
+        const Index i = q.top();
+        const double r = uniform(rng);
+        // The popped particle: a later time, a tie with now (a zero-delay check), a tie on a coarse grid of
+        // times, or never (+inf: nothing ahead of it).
+        double next = now + scale * n * uniform(rng);
+        if (r < 0.05)
+          next = now;
+        else if (r < 0.15)
+          next = std::floor(now / scale + 3.0) * scale;
+        else if (r < 0.18)
+          next = kInf;
+        else if (r < 0.19)
+          next = now + 1e3 * scale * n;                                      // far beyond the buckets: the overflow
+        if (!std::isfinite(now)) next = static_cast<double>(steps) * scale;  // everything at +inf: restart
+        set(i, next);
+        // A partner or a claimed particle: any particle, a later key.
+        if (r > 0.6) {
+          const Index j = static_cast<Index>(rng() % static_cast<std::uint64_t>(n));
+          const double base = std::isfinite(order.begin()->first) ? order.begin()->first : 0.0;
+          set(j, std::max(base, keys[static_cast<std::size_t>(j)] < kInf ? base + scale * n * uniform(rng) : base));
+        }
+        if (s % 997 == 0) {
+          ASSERT_NO_THROW(q.validate()) << "n " << n << " step " << steps;
+        }
+      }
+      if (phase == 3) resetAll(order.begin()->first < kInf ? order.begin()->first : 0.0);
+    }
+    ASSERT_NO_THROW(q.validate());
+    if (n >= 300) {
+      EXPECT_GT(q.rebuilds(), 2) << "the width never followed the rate";
+      EXPECT_GT(q.bucketWidth(), 0.0);
+      EXPECT_LT(q.heapSize(), n / 2) << "the near heap should hold a small part of the keys";
+    }
+  }
 }
 
 }  // namespace
