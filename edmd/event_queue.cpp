@@ -281,7 +281,7 @@ void EventQueue::validate() const {
     if (slot_[static_cast<std::size_t>(p)] != static_cast<Index>(k)) {
       fail("position index of particle " + std::to_string(p) + " is stale");
     }
-    if (heap[k].key != key_[static_cast<std::size_t>(p)] && !(std::isnan(heap[k].key))) {
+    if (heap[k].key != key_[static_cast<std::size_t>(p)]) {
       fail("heap key of particle " + std::to_string(p) + " differs from its key");
     }
     if (k > 0 && before(heap[k], heap[(k - 1) / kArity])) fail("heap order violated at node " + std::to_string(k));
