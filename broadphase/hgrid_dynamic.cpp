@@ -55,7 +55,11 @@ void HGridDynamic::doBuild(const SphereView& spheres) {
     }
     lv.run.assign(cells, Run{});
     lv.room.assign(cells, 0);
+    axisStride_ = std::max({axisStride_, static_cast<std::size_t>(lv.n[0]), static_cast<std::size_t>(lv.n[1]),
+                            static_cast<std::size_t>(lv.n[2])});
   }
+  axisGap2_.resize(3 * axisStride_);
+  axisCell_.resize(3 * axisStride_);
   for (Index i = 0; i < n; ++i) {
     const auto ui = static_cast<std::size_t>(i);
     Level& lv = levels_[level_[ui]];
@@ -223,21 +227,31 @@ void HGridDynamic::query(Index i, double reach, std::vector<Index>& out) const {
       };
       const double range2 = range * range;
       auto wrap = [](std::int32_t c, std::int32_t m) { return c < 0 ? c + m : (c >= m ? c - m : c); };
+      // Per axis, once per level: each column of the block's squared distance and wrapped cell index (the
+      // inner loops read them instead of recomputing the x column for every y and z).
+      double* g2[3];
+      std::int32_t* wrapped[3];
+      for (int k = 0; k < 3; ++k) {
+        g2[k] = axisGap2_.data() + static_cast<std::size_t>(k) * axisStride_;
+        wrapped[k] = axisCell_.data() + static_cast<std::size_t>(k) * axisStride_;
+        for (std::int32_t c = 0; c < count[k]; ++c) {
+          const double g = gap(k, lo[k] + c);
+          g2[k][c] = g * g;
+          wrapped[k][c] = wrap(lo[k] + c, lv.n[k]);
+        }
+      }
       const Run* runs = lv.run.data();
       for (std::int32_t z = 0; z < count[2]; ++z) {
-        const double gz = gap(2, lo[2] + z);
-        const double dz2 = gz * gz;
+        const double dz2 = g2[2][z];
         if (dz2 > range2) continue;
-        const std::int64_t cz = wrap(lo[2] + z, lv.n[2]);
+        const std::int64_t cz = wrapped[2][z];
         for (std::int32_t y = 0; y < count[1]; ++y) {
-          const double gy = gap(1, lo[1] + y);
-          const double dyz2 = dz2 + gy * gy;
+          const double dyz2 = dz2 + g2[1][y];
           if (dyz2 > range2) continue;
-          const std::int64_t cyz = (cz * lv.n[1] + wrap(lo[1] + y, lv.n[1])) * lv.n[0];
+          const std::int64_t cyz = (cz * lv.n[1] + wrapped[1][y]) * lv.n[0];
           for (std::int32_t x = 0; x < count[0]; ++x) {
-            const double gx = gap(0, lo[0] + x);
-            if (dyz2 + gx * gx > range2) continue;
-            const auto c = static_cast<std::int32_t>(cyz + wrap(lo[0] + x, lv.n[0]));
+            if (dyz2 + g2[0][x] > range2) continue;
+            const auto c = static_cast<std::int32_t>(cyz + wrapped[0][x]);
             __builtin_prefetch(runs + c);
             visit_.push_back(c);
           }

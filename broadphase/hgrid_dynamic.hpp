@@ -95,6 +95,11 @@ class HGridDynamic final : public BroadPhase {
   mutable std::vector<Index> found_;         // a query's candidates, each written, the count advancing for hits
   mutable std::vector<std::int32_t> visit_;  // a query's cells, gathered (and prefetched) before they are read
   mutable std::vector<Index> scratch_;       // findPairs' per-sphere query, kept so steady-state calls do not allocate
+  // A query's block, per axis (3 x axisStride_): squared distance of each column from the centre, and its
+  // wrapped cell index. axisStride_ is the most cells per axis of any level since construction.
+  mutable std::vector<double> axisGap2_;
+  mutable std::vector<std::int32_t> axisCell_;
+  std::size_t axisStride_ = 0;
 };
 
 }  // namespace polydem::broadphase
