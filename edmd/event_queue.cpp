@@ -25,10 +25,8 @@ void EventQueue::reset(Index count) {
   heapSize_ = count;
   key_.assign(n, kInf);
   slot_.resize(n);
-  next_.assign(n, -1);
-  prev_.assign(n, -1);
-  head_.assign(1, -1);
   buckets_ = 0;
+  clearLists();
   current_ = 0;
   spread_ = false;
   base_ = 0.0;
@@ -99,15 +97,16 @@ void EventQueue::update(Index particle, double key) {
       listPush(to, particle);
       if (heapSize_ == 0) refill();
     }
-  } else {
-    listErase(-s - 1, particle);
-    if (to < 0) {
-      heapPush(particle);
-    } else {
-      listPush(to, particle);
-    }
-  }
+  } else if (to < 0) {
+    heapPush(particle);  // its list entry is now stale
+  } else if (tagOf(to) != s) {
+    listPush(to, particle);
+  }  // else: still in its list, whose entry stays valid
   if (++updates_ >= size_) tune();
+  if (entries_ > 3 * static_cast<std::int64_t>(size_) + 1024) {
+    ++compactions_;
+    spreadAll();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------------
@@ -189,56 +188,64 @@ void EventQueue::heapify() {
 // Bucket lists and their hand-over to the heap
 
 void EventQueue::listPush(std::int64_t list, Index particle) {
-  const std::size_t p = static_cast<std::size_t>(particle);
-  Index& head = head_[static_cast<std::size_t>(list)];
-  next_[p] = head;
-  prev_[p] = -1;
-  if (head >= 0) prev_[static_cast<std::size_t>(head)] = particle;
-  head = particle;
-  slot_[p] = static_cast<Index>(-list - 1);
+  lists_[static_cast<std::size_t>(list)].push_back(particle);
+  ++entries_;
+  slot_[static_cast<std::size_t>(particle)] = tagOf(list);
 }
 
-void EventQueue::listErase(std::int64_t list, Index particle) {
-  const std::size_t p = static_cast<std::size_t>(particle);
-  const Index before = prev_[p], after = next_[p];
-  if (before >= 0) {
-    next_[static_cast<std::size_t>(before)] = after;
-  } else {
-    head_[static_cast<std::size_t>(list)] = after;
-  }
-  if (after >= 0) prev_[static_cast<std::size_t>(after)] = before;
+void EventQueue::clearLists() {
+  if (lists_.size() < static_cast<std::size_t>(buckets_) + 1) lists_.resize(static_cast<std::size_t>(buckets_) + 1);
+  for (std::vector<Index>& list : lists_) list.clear();
+  entries_ = 0;
 }
 
 void EventQueue::refill() {
+  constexpr std::size_t kAhead = 8;  // entries whose slot and key are requested ahead of their test
   while (heapSize_ == 0) {
-    while (++current_ < buckets_ && head_[static_cast<std::size_t>(current_)] < 0) {
+    while (++current_ < buckets_ && lists_[static_cast<std::size_t>(current_)].empty()) {
     }
     if (current_ < buckets_) {
+      std::vector<Index>& list = lists_[static_cast<std::size_t>(current_)];
+      const Index tag = tagOf(current_);
       Node* const heap = nodes();
-      for (Index p = head_[static_cast<std::size_t>(current_)]; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
-        heap[heapSize_++] = Node{key_[static_cast<std::size_t>(p)], p};
+      const std::size_t m = list.size();
+      for (std::size_t k = 0; k < m; ++k) {
+        if (k + kAhead < m) {
+          const std::size_t q = static_cast<std::size_t>(list[k + kAhead]);
+          __builtin_prefetch(&slot_[q]);
+          __builtin_prefetch(&key_[q]);
+        }
+        const std::size_t p = static_cast<std::size_t>(list[k]);
+        if (slot_[p] != tag) continue;  // stale, or taken already
+        slot_[p] = heapSize_;
+        heap[heapSize_++] = Node{key_[p], list[k]};
       }
-      head_[static_cast<std::size_t>(current_)] = -1;
+      entries_ -= static_cast<std::int64_t>(m);
+      list.clear();
       heapify();
-      return;
+      continue;  // every entry may have been stale: then the next bucket
     }
     // The buckets are used up: spread the overflow over a new range from its earliest finite key.
     const std::size_t overflow = static_cast<std::size_t>(buckets_);
-    Index first = head_[overflow];
-    if (first < 0) return;  // nothing left (no particles)
+    spill_.swap(lists_[overflow]);
+    entries_ -= static_cast<std::int64_t>(spill_.size());
+    const Index tag = tagOf(buckets_);
     double earliest = kInf;
-    for (Index p = first; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
-      earliest = std::min(earliest, key_[static_cast<std::size_t>(p)]);
+    std::size_t valid = 0;
+    for (const Index p : spill_) {  // keep each member once, marked as taken (slot 0 until placed)
+      const std::size_t up = static_cast<std::size_t>(p);
+      if (slot_[up] != tag) continue;
+      slot_[up] = 0;
+      spill_[valid++] = p;
+      earliest = std::min(earliest, key_[up]);
     }
-    head_[overflow] = -1;
+    spill_.resize(valid);
+    if (valid == 0) return;  // nothing left (no particles)
     if (earliest == kInf) spread_ = false;  // only +inf left: they all go to the heap
     base_ = earliest;
     current_ = 0;
-    for (Index p = first; p >= 0;) {
-      const Index after = next_[static_cast<std::size_t>(p)];
-      place(p);
-      p = after;
-    }
+    for (const Index p : spill_) place(p);
+    spill_.clear();
     heapify();
   }
 }
@@ -249,7 +256,11 @@ void EventQueue::rebuild(double width) {
   inverseWidth_ = 1.0 / width;
   const double lists = std::ceil(kSpan * static_cast<double>(size_) / kHeapTarget);
   buckets_ = static_cast<std::int64_t>(std::max(16.0, lists));
-  head_.assign(static_cast<std::size_t>(buckets_) + 1, -1);
+  spreadAll();
+}
+
+void EventQueue::spreadAll() {
+  clearLists();
   double earliest = kInf;
   for (std::size_t p = 0; p < static_cast<std::size_t>(size_); ++p) earliest = std::min(earliest, key_[p]);
   spread_ = earliest < kInf;
@@ -288,16 +299,25 @@ void EventQueue::validate() const {
     if (placeOf(heap[k].key) >= 0) fail("particle " + std::to_string(p) + " is in the heap but belongs in a list");
   }
   Index listed = 0;
-  for (std::int64_t list = 0; list <= (spread_ ? buckets_ : -1); ++list) {
-    Index last = -1;
-    for (Index p = head_[static_cast<std::size_t>(list)]; p >= 0; p = next_[static_cast<std::size_t>(p)]) {
+  std::vector<char> seen(static_cast<std::size_t>(size_), 0);
+  std::int64_t entries = 0;
+  for (std::int64_t list = 0; list <= buckets_; ++list) {
+    const std::vector<Index>& members = lists_[static_cast<std::size_t>(list)];
+    entries += static_cast<std::int64_t>(members.size());
+    if (!spread_ && !members.empty()) fail("a list holds entries while every key belongs in the heap");
+    for (const Index p : members) {
+      if (p < 0 || p >= size_) fail("a list holds particle " + std::to_string(p) + " of " + std::to_string(size_));
       const std::size_t up = static_cast<std::size_t>(p);
-      if (++listed > size_) fail("a bucket list has a cycle");
-      if (slot_[up] != -list - 1) fail("particle " + std::to_string(p) + " is linked into the wrong list");
-      if (prev_[up] != last) fail("backward link of particle " + std::to_string(p) + " is stale");
+      if (slot_[up] != tagOf(list) || seen[up] != 0) continue;  // stale or repeated: skipped when emptied
+      seen[up] = 1;
+      ++listed;
       if (placeOf(key_[up]) != list) fail("particle " + std::to_string(p) + " is in the wrong bucket");
-      last = p;
     }
+  }
+  if (entries != entries_) fail("the list entry count is stale");
+  if (entries_ > 3 * static_cast<std::int64_t>(size_) + 1024) fail("stale list entries were not dropped");
+  for (std::size_t p = 0; p < static_cast<std::size_t>(size_); ++p) {
+    if (slot_[p] < 0 && seen[p] == 0) fail("particle " + std::to_string(p) + " is missing from its list");
   }
   if (listed + heapSize_ != size_)
     fail("keys lost: " + std::to_string(listed + heapSize_) + " of " + std::to_string(size_));
