@@ -188,64 +188,95 @@ void EventQueue::heapify() {
 // Bucket lists and their hand-over to the heap
 
 void EventQueue::listPush(std::int64_t list, Index particle) {
-  lists_[static_cast<std::size_t>(list)].push_back(particle);
+  ListEnds& ends = lists_[static_cast<std::size_t>(list)];
+  if (ends.tail < 0 || ends.fill == kChunkEntries) {
+    Index c = free_;
+    if (c >= 0) {
+      free_ = pool_[static_cast<std::size_t>(c)].next;
+    } else {
+      c = static_cast<Index>(pool_.size());
+      pool_.emplace_back();
+    }
+    pool_[static_cast<std::size_t>(c)].next = -1;
+    if (ends.tail < 0) {
+      ends.head = c;
+    } else {
+      pool_[static_cast<std::size_t>(ends.tail)].next = c;
+    }
+    ends.tail = c;
+    ends.fill = 0;
+  }
+  pool_[static_cast<std::size_t>(ends.tail)].entry[ends.fill++] = particle;
   ++entries_;
   slot_[static_cast<std::size_t>(particle)] = tagOf(list);
 }
 
 void EventQueue::clearLists() {
-  if (lists_.size() < static_cast<std::size_t>(buckets_) + 1) lists_.resize(static_cast<std::size_t>(buckets_) + 1);
-  for (std::vector<Index>& list : lists_) list.clear();
+  lists_.assign(static_cast<std::size_t>(buckets_) + 1, ListEnds{});
+  pool_.clear();  // keeps its capacity
+  free_ = -1;
   entries_ = 0;
+}
+
+void EventQueue::drainList(std::int64_t list, std::vector<Index>& out) {
+  ListEnds& ends = lists_[static_cast<std::size_t>(list)];
+  out.clear();
+  for (Index c = ends.head; c >= 0;) {
+    const Chunk& chunk = pool_[static_cast<std::size_t>(c)];
+    if (chunk.next >= 0) __builtin_prefetch(&pool_[static_cast<std::size_t>(chunk.next)]);
+    out.insert(out.end(), chunk.entry, chunk.entry + (c == ends.tail ? ends.fill : kChunkEntries));
+    c = chunk.next;
+  }
+  if (ends.head >= 0) {  // the whole chain goes to the front of the free list
+    pool_[static_cast<std::size_t>(ends.tail)].next = free_;
+    free_ = ends.head;
+  }
+  ends = ListEnds{};
+  entries_ -= static_cast<std::int64_t>(out.size());
 }
 
 void EventQueue::refill() {
   constexpr std::size_t kAhead = 8;  // entries whose slot and key are requested ahead of their test
   while (heapSize_ == 0) {
-    while (++current_ < buckets_ && lists_[static_cast<std::size_t>(current_)].empty()) {
+    while (++current_ < buckets_ && lists_[static_cast<std::size_t>(current_)].head < 0) {
     }
     if (current_ < buckets_) {
-      std::vector<Index>& list = lists_[static_cast<std::size_t>(current_)];
+      drainList(current_, drained_);
       const Index tag = tagOf(current_);
       Node* const heap = nodes();
-      const std::size_t m = list.size();
+      const std::size_t m = drained_.size();
       for (std::size_t k = 0; k < m; ++k) {
         if (k + kAhead < m) {
-          const std::size_t q = static_cast<std::size_t>(list[k + kAhead]);
+          const std::size_t q = static_cast<std::size_t>(drained_[k + kAhead]);
           __builtin_prefetch(&slot_[q]);
           __builtin_prefetch(&key_[q]);
         }
-        const std::size_t p = static_cast<std::size_t>(list[k]);
+        const std::size_t p = static_cast<std::size_t>(drained_[k]);
         if (slot_[p] != tag) continue;  // stale, or taken already
         slot_[p] = heapSize_;
-        heap[heapSize_++] = Node{key_[p], list[k]};
+        heap[heapSize_++] = Node{key_[p], drained_[k]};
       }
-      entries_ -= static_cast<std::int64_t>(m);
-      list.clear();
       heapify();
       continue;  // every entry may have been stale: then the next bucket
     }
     // The buckets are used up: spread the overflow over a new range from its earliest finite key.
-    const std::size_t overflow = static_cast<std::size_t>(buckets_);
-    spill_.swap(lists_[overflow]);
-    entries_ -= static_cast<std::int64_t>(spill_.size());
+    drainList(buckets_, drained_);
     const Index tag = tagOf(buckets_);
     double earliest = kInf;
     std::size_t valid = 0;
-    for (const Index p : spill_) {  // keep each member once, marked as taken (slot 0 until placed)
+    for (const Index p : drained_) {  // keep each member once, marked as taken (slot 0 until placed)
       const std::size_t up = static_cast<std::size_t>(p);
       if (slot_[up] != tag) continue;
       slot_[up] = 0;
-      spill_[valid++] = p;
+      drained_[valid++] = p;
       earliest = std::min(earliest, key_[up]);
     }
-    spill_.resize(valid);
-    if (valid == 0) return;  // nothing left (no particles)
+    drained_.resize(valid);
+    if (valid == 0) return;                 // nothing left (no particles)
     if (earliest == kInf) spread_ = false;  // only +inf left: they all go to the heap
     base_ = earliest;
     current_ = 0;
-    for (const Index p : spill_) place(p);
-    spill_.clear();
+    for (const Index p : drained_) place(p);
     heapify();
   }
 }
@@ -302,17 +333,28 @@ void EventQueue::validate() const {
   std::vector<char> seen(static_cast<std::size_t>(size_), 0);
   std::int64_t entries = 0;
   for (std::int64_t list = 0; list <= buckets_; ++list) {
-    const std::vector<Index>& members = lists_[static_cast<std::size_t>(list)];
-    entries += static_cast<std::int64_t>(members.size());
-    if (!spread_ && !members.empty()) fail("a list holds entries while every key belongs in the heap");
-    for (const Index p : members) {
-      if (p < 0 || p >= size_) fail("a list holds particle " + std::to_string(p) + " of " + std::to_string(size_));
-      const std::size_t up = static_cast<std::size_t>(p);
-      if (slot_[up] != tagOf(list) || seen[up] != 0) continue;  // stale or repeated: skipped when emptied
-      seen[up] = 1;
-      ++listed;
-      if (placeOf(key_[up]) != list) fail("particle " + std::to_string(p) + " is in the wrong bucket");
+    const ListEnds& ends = lists_[static_cast<std::size_t>(list)];
+    if (!spread_ && ends.head >= 0) fail("a list holds entries while every key belongs in the heap");
+    Index last = -1;
+    for (Index c = ends.head; c >= 0; c = pool_[static_cast<std::size_t>(c)].next) {
+      if (c >= static_cast<Index>(pool_.size())) fail("a list links to a chunk outside the pool");
+      const Chunk& chunk = pool_[static_cast<std::size_t>(c)];
+      const int count = c == ends.tail ? ends.fill : kChunkEntries;
+      if (count < 1 || count > kChunkEntries) fail("a chunk has a bad entry count");
+      if (++entries > 3 * static_cast<std::int64_t>(size_) + 1024 + kChunkEntries) fail("a list has a cycle");
+      entries += count - 1;
+      for (int k = 0; k < count; ++k) {
+        const Index p = chunk.entry[k];
+        if (p < 0 || p >= size_) fail("a list holds particle " + std::to_string(p) + " of " + std::to_string(size_));
+        const std::size_t up = static_cast<std::size_t>(p);
+        if (slot_[up] != tagOf(list) || seen[up] != 0) continue;  // stale or repeated: skipped when emptied
+        seen[up] = 1;
+        ++listed;
+        if (placeOf(key_[up]) != list) fail("particle " + std::to_string(p) + " is in the wrong bucket");
+      }
+      last = c;
     }
+    if (last != ends.tail) fail("the tail of a list is stale");
   }
   if (entries != entries_) fail("the list entry count is stale");
   if (entries_ > 3 * static_cast<std::int64_t>(size_) + 1024) fail("stale list entries were not dropped");

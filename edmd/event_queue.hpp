@@ -9,13 +9,15 @@
 // (and +inf) in an overflow list. When the heap runs empty the next non-empty bucket moves into it; when
 // the buckets run out the overflow is spread over a new range.
 //
-// A list is an array of particle indices, and leaving a list is lazy: the particle's slot says where it
-// is now, and an entry whose particle's slot names another place (or that repeats a particle already
-// taken) is stale and skipped when its list is emptied. So a key update writes no list at all (and none
-// when the key stays in its bucket), and emptying a list reads its entries from one array, whose
-// particles' keys and slots load in parallel; linked lists made that a chain of dependent cache misses,
-// 8% of the run time at 10^5 particles. Stale entries are bounded: when the lists hold more than
-// 3N + 1024 entries they are rebuilt from the keys (O(N), at most once per 2N updates). The bucket index
+// A list is a chain of 64-byte chunks of 15 particle indices (from one pool, reused through a free list),
+// and leaving a list is lazy: the particle's slot says where it is now, and an entry whose particle's slot
+// names another place (or that repeats a particle already taken) is stale and skipped when its list is
+// emptied. So a key update that leaves a list writes nothing there (and one that stays in its bucket
+// nothing at all), a push stores into one line without loading from it, and emptying a list reads its
+// entries a chunk at a time, their particles' keys and slots loading in parallel. A doubly linked list
+// through the particles made both a chain of dependent cache misses: 8% of the run time at 10^5 particles
+// for the emptying alone. Stale entries are bounded: when the lists hold more than 3N + 1024 entries they
+// are rebuilt from the keys (O(N), at most once per 2N updates). The bucket index
 // floor((t - base) / w) is monotone in t, so every heap key precedes every bucketed key and the pop order
 // is exactly that of one heap ordered by (key, particle): ties go to the lower particle index, so the
 // order does not depend on the history of the structure (the test compares it with an ordered set).
@@ -101,6 +103,8 @@ class EventQueue {
   void heapify();
   void listPush(std::int64_t list, Index particle);
   void clearLists();
+  /// Take the whole list (its entries to `out`, stale ones included) and return its chunks to the pool.
+  void drainList(std::int64_t list, std::vector<Index>& out);
   void refill();  // the heap is empty: move the next non-empty bucket (or the spread overflow) into it
   void rebuild(double width);
   void spreadAll();  // every key placed again from the earliest one (stale entries dropped); O(N)
@@ -115,9 +119,23 @@ class EventQueue {
   LargeVector<double> key_;
   // slot_[p] >= 0: heap position; < 0: list -slot_[p] - 1 (a bucket, or the overflow = buckets_).
   LargeVector<Index> slot_;
-  std::vector<std::vector<Index>> lists_;  // at least buckets_ + 1; entries may be stale (see above)
-  std::vector<Index> spill_;               // the overflow's entries while it is spread
-  std::int64_t entries_ = 0;               // entries in all lists
+  static constexpr int kChunkEntries = 15;
+  struct alignas(64) Chunk {
+    Index next;                  // next chunk of the list (or of the free list); -1: none
+    Index entry[kChunkEntries];  // full, except in a list's tail chunk
+  };
+  // The fill of the tail chunk is kept here, not in the chunk, so that a push only stores into the chunk
+  // (a chunk written long ago is usually out of cache; a load from it would stall the event loop).
+  struct ListEnds {
+    Index head = -1, tail = -1;  // chunks; -1: empty
+    Index fill = 0;              // entries in the tail chunk
+    Index unused = 0;
+  };
+  LargeVector<Chunk> pool_;
+  Index free_ = -1;              // first free chunk
+  std::vector<ListEnds> lists_;  // at least buckets_ + 1; entries may be stale (see above)
+  std::vector<Index> drained_;   // a list's entries while they are moved
+  std::int64_t entries_ = 0;     // entries in all lists
   std::int64_t compactions_ = 0;
   std::int64_t buckets_ = 0;  // lists 0..buckets_-1 are buckets, list buckets_ the overflow
   std::int64_t current_ = 0;  // keys with floor((t - base_) / width_) <= current_ are in the heap

@@ -421,6 +421,8 @@ class HardSphereSystem {
     __builtin_prefetch(first);
     __builtin_prefetch(first + 16);
   }
+  /// The states and events of i's first kPrefetchAhead neighbours (what predict(i) reads first).
+  void prefetchNeighbourStates(Index i) const;
   std::span<const Index> neighboursOf(Index i) const {
     const Hood& h = hood_[static_cast<std::size_t>(i)];
     return {nbData_.data() + h.begin, static_cast<std::size_t>(h.size)};
