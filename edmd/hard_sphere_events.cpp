@@ -65,14 +65,9 @@ inline bool HardSphereSystem::keepEarlier(double tau, double tc, double horizon,
   return keepEarlierImpl(tau, tc, horizon, best);
 }
 
-// Neighbours whose state and event are requested ahead of their use in predict(). 16 covers most lists of
-// equal spheres (12-14 neighbours) at once: at 10^5 particles, where the states no longer fit the caches,
-// 16 against 4 gave 1.16x collisions per second (docs/benchmarks/edmd/README.md, session 33).
-constexpr std::size_t kPrefetchAhead = 16;
-
 void HardSphereSystem::prefetchNeighbourStates(Index i) const {
   const std::span<const Index> list = neighboursOf(i);
-  for (std::size_t k = 0; k < std::min(list.size(), kPrefetchAhead); ++k) {
+  for (std::size_t k = 0; k < std::min(list.size(), prefetchAhead_); ++k) {
     __builtin_prefetch(&state_[list[k]]);
     __builtin_prefetch(&event_[list[k]]);
   }
@@ -121,7 +116,7 @@ void HardSphereSystem::predict(Index i) {
     double bestTime = best.time;
     Index bestPartner = -1;
     for (std::size_t k = 0; k < m; ++k) {
-      const Index ahead = list[std::min(k + kPrefetchAhead, m - 1)];
+      const Index ahead = list[std::min(k + prefetchAhead_, m - 1)];
       __builtin_prefetch(states + ahead);
       __builtin_prefetch(events + ahead);
       const Index j = list[k];

@@ -58,6 +58,7 @@ HardSphereSystem::HardSphereSystem(const Box& box, const Eigen::Matrix3Xd& posit
 
   const Index n = static_cast<Index>(radius.size());
   state_.resize(static_cast<std::size_t>(n));
+  prefetchAhead_ = state_.size() * sizeof(State) > (std::size_t{1} << 20) ? 16 : 4;
   external_.resize(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) external_[static_cast<std::size_t>(i)] = i;
   mass_.resize(n);
