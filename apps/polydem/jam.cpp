@@ -39,7 +39,7 @@ namespace {
 // Options that do not touch the trajectory: the only ones --resume accepts (everything else comes from the
 // checkpoint, so a resumed run is the run that was interrupted).
 const std::set<std::string> kResumeOverrides = {"--resume", "--progress", "--checkpoint-interval",
-                                                "--stop-after-blocks"};
+                                                "--stop-after-blocks", "--summary-json"};
 
 /// A finite number in the open interval (0, 1).
 CLI::Validator openUnitInterval() {
@@ -151,6 +151,13 @@ struct JamRun {
   std::unique_ptr<edmd::HardSphereSystem> system;
   edmd::CompressionState cstate;
   std::int64_t eosOffset = -1;  // size of the EOS table at the checkpoint resumed from
+  // Sessions of a resumed run: the wall-clock seconds of the compression in the earlier sessions (unknown
+  // in checkpoints written before session 33, which did not record them), and the events so far.
+  double priorWallSeconds = 0.0;
+  bool priorWallKnown = true;
+  std::int64_t priorSessions = 0;
+  edmd::EventCounts sessionStart;  // the system's counts when this session's compression began
+  Stopwatch session;               // this session's compression (restarted by compressPacking)
   std::ofstream eosCsv;
   io::PeriodicFlush flushEos;
 };
@@ -162,8 +169,8 @@ void loadResumeSettings(JamRun& run) {
     if (o->count() > 0 && !kResumeOverrides.count(o->get_name())) {
       throw ConfigError(fmt::format(
           "{} cannot be combined with --resume: the checkpoint holds every setting of the run, so that the "
-          "resumed run is the interrupted one (only --progress, --checkpoint-interval and --stop-after-blocks "
-          "may be given)",
+          "resumed run is the interrupted one (only --progress, --checkpoint-interval, --stop-after-blocks and "
+          "--summary-json may be given)",
           o->get_name()));
     }
   }
@@ -233,6 +240,9 @@ void resumeStart(JamRun& run) {
   run.system = restoreSystem(run.saved, file, run.opt, run.start);
   run.cstate = getCompressionState(run.saved);
   run.eosOffset = run.saved.integerScalar("eos_offset");
+  run.priorWallKnown = run.saved.has("wall_seconds_before");
+  run.priorWallSeconds = run.priorWallKnown ? run.saved.scalar("wall_seconds_before") : 0.0;
+  run.priorSessions = run.saved.has("sessions_before") ? run.saved.integerScalar("sessions_before") : 1;
 }
 
 /// Start from --input, shrunk to about --reopen's pressure if given.
@@ -321,11 +331,17 @@ void writeJamCheckpoint(JamRun& run, edmd::HardSphereSystem& system, const edmd:
     run.eosCsv.flush();
     offset = static_cast<std::int64_t>(run.eosCsv.tellp());
   }
-  io::writeCheckpoint(run.opt.checkpoint, jamCheckpoint(run.opt, run.resuming ? run.saved.string("origin") : run.origin,
-                                                        run.start, system, cs, offset));
+  io::Checkpoint c =
+      jamCheckpoint(run.opt, run.resuming ? run.saved.string("origin") : run.origin, run.start, system, cs, offset);
+  // What the sessions up to this checkpoint spent: a later resume reports the whole run's time.
+  if (run.priorWallKnown) c.putScalar("wall_seconds_before", run.priorWallSeconds + run.session.seconds());
+  c.putInteger("sessions_before", run.priorSessions + 1);
+  io::writeCheckpoint(run.opt.checkpoint, c);
 }
 
-void printProgress(const edmd::Progress& p) {
+/// p.wallSeconds counts from this session's start; a resumed run's lines and EOS rows add the earlier sessions'
+/// time (when the checkpoint recorded it), so that the column keeps rising across a resume.
+void printProgress(const edmd::Progress& p, double priorWall) {
   fmt::print(
       "phi {:.6f}  p {:>10}  phiJ~ {:>8}  rate {:.0e}  coll/particle {:>9.0f}  events/s {:.3g}  "
       "coll/s {:.3g}  nb {:.1f} exits/coll {:.3f}  wall {:.1f} s\n",
@@ -333,13 +349,14 @@ void printProgress(const edmd::Progress& p) {
       // phi / (1 - 3/p) is undefined while p <= 3 (a dilute gas): a dash, not "nan".
       std::isfinite(p.jammingEstimate) ? fmt::format("{:.6f}", p.jammingEstimate) : std::string("-"), p.rate,
       p.collisionsPerParticle, p.eventsPerSecond, p.collisionsPerSecond, p.meanNeighbours, p.exitsPerCollision,
-      p.wallSeconds);
+      priorWall + p.wallSeconds);
   std::fflush(stdout);
 }
 
 struct CompressOutcome {
   edmd::CompressionResult result;
-  double seconds = 0.0;
+  double seconds = 0.0;         // this session's compression
+  edmd::EventCounts session;    // this session's events (the result's counts cover every session)
   bool stoppedForTest = false;  // --stop-after-blocks acted, not a signal
 };
 
@@ -350,7 +367,8 @@ struct CompressOutcome {
 CompressOutcome compressPacking(JamRun& run) {
   const JamOptions& opt = run.opt;
   CompressOutcome out;
-  Stopwatch clock;
+  run.session = Stopwatch();
+  run.sessionStart = run.system->counts();
   double lastPrint = -1e300;
   edmd::Progress lastShown;
   Stopwatch sinceCheckpoint;
@@ -368,18 +386,19 @@ CompressOutcome compressPacking(JamRun& run) {
   const auto onBlock = [&](const edmd::Progress& p) {
     if (run.eosCsv.is_open()) {
       run.eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
-                                p.collisionsPerParticle, p.time, p.wallSeconds);
+                                p.collisionsPerParticle, p.time, run.priorWallSeconds + p.wallSeconds);
       run.flushEos(run.eosCsv);
     }
     if (p.wallSeconds - lastPrint >= opt.progressSeconds) {
-      printProgress(p);
+      printProgress(p, run.priorWallSeconds);
       lastPrint = p.wallSeconds;
       lastShown = p;
     }
   };
   out.result = edmd::compress(*run.system, run.copt, onBlock, atBoundary, &run.cstate);
-  if (lastShown.blocks != out.result.last.blocks) printProgress(out.result.last);
-  out.seconds = clock.seconds();
+  if (lastShown.blocks != out.result.last.blocks) printProgress(out.result.last, run.priorWallSeconds);
+  out.seconds = run.session.seconds();
+  out.session = run.system->counts() - run.sessionStart;
   return out;
 }
 
@@ -429,8 +448,22 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
   fmt::print("phi_J estimate          {}  (phi / (1 - 3/p))\n", phiJText);
   fmt::print("collisions              {} ({:.0f} per particle), {} events; {} exits, {} rebuilds\n", c.collisions,
              static_cast<double>(c.collisions) / n, c.events(), c.exits, c.rebuilds);
-  fmt::print("wall time               {:.2f} s ({:.3g} collisions/s, {:.3g} events/s)\n", seconds,
-             c.collisions / std::max(seconds, 1e-9), c.events() / std::max(seconds, 1e-9));
+  // The rate is this session's events over this session's time; a resumed run's totals cover every session.
+  const edmd::EventCounts& now = outcome.session;
+  const std::int64_t sessions = run.priorSessions + 1;
+  const double allSeconds = run.priorWallSeconds + seconds;
+  if (sessions == 1) {
+    fmt::print("wall time               {:.2f} s ({:.3g} collisions/s, {:.3g} events/s)\n", seconds,
+               now.collisions / std::max(seconds, 1e-9), now.events() / std::max(seconds, 1e-9));
+  } else {
+    fmt::print(
+        "wall time               {:.2f} s in this session ({} collisions: {:.3g} collisions/s, {:.3g} events/s); {}\n",
+        seconds, now.collisions, now.collisions / std::max(seconds, 1e-9), now.events() / std::max(seconds, 1e-9),
+        run.priorWallKnown ? fmt::format("{:.2f} s over all {} sessions", allSeconds, sessions)
+                           : fmt::format("session {}; the checkpoint resumed from does not record the earlier "
+                                         "sessions' time (written by an older polydem)",
+                                         sessions));
+  }
   fmt::print("contacts (gap <= {:.1e}) {}  z = {:.4f}\n", s.contactOptions.relativeGap, net.contacts.size(),
              net.meanCoordination());
   fmt::print("rattlers (< {} contacts)  {} ({:.2f}%)\n", s.contactOptions.minContacts, n - net.backbone,
@@ -462,6 +495,13 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
   sum.put("report.cell_exits", static_cast<std::int64_t>(c.exits));
   sum.put("report.rebuilds", static_cast<std::int64_t>(c.rebuilds));
   sum.put("report.wall_seconds", seconds);
+  sum.put("report.sessions", sessions);
+  sum.put("report.session_collisions", static_cast<std::int64_t>(now.collisions));
+  if (run.priorWallKnown) {
+    sum.put("report.wall_seconds_all_sessions", allSeconds);
+  } else {
+    sum.undefined("report.wall_seconds_all_sessions", "the checkpoint resumed from does not record earlier sessions");
+  }
   sum.put("report.contacts.relative_gap", s.contactOptions.relativeGap);
   sum.put("report.contacts.count", static_cast<std::int64_t>(net.contacts.size()));
   sum.put("report.contacts.z", net.meanCoordination());

@@ -79,10 +79,10 @@ int main(int argc, char** argv) {
 #endif
     if (!summaryPath.empty() && root) {
       // Checked before the run (issue 15): not a directory, writable, not one of the inputs (the
-      // subcommand's positional arguments and --input).
+      // subcommand's positional arguments, --input, and the checkpoint of jam --resume).
       std::vector<std::filesystem::path> inputs;
       for (const CLI::Option* opt : sub->get_options()) {
-        if (opt->get_positional() || opt->check_name("--input")) {
+        if (opt->get_positional() || opt->check_name("--input") || opt->check_name("--resume")) {
           for (const std::string& r : opt->results()) inputs.emplace_back(r);
         }
       }
