@@ -65,21 +65,16 @@ inline bool HardSphereSystem::keepEarlier(double tau, double tc, double horizon,
   return keepEarlierImpl(tau, tc, horizon, best);
 }
 
-void HardSphereSystem::prefetchNeighbourStates(Index i) const {
-  const std::span<const Index> list = neighboursOf(i);
-  for (std::size_t k = 0; k < std::min(list.size(), prefetchAhead_); ++k) {
-    __builtin_prefetch(&state_[list[k]]);
-    __builtin_prefetch(&event_[list[k]]);
-  }
-}
-
 void HardSphereSystem::predict(Index i) {
   // Donev 2006 (thesis), Algorithm 5, near-neighbour-list mode.
   const std::size_t ui = static_cast<std::size_t>(i);
   const State& si = state_[ui];
   const std::span<const Index> list = neighboursOf(i);
   // Start loading the first neighbours' states while the exit time is computed.
-  prefetchNeighbourStates(i);
+  for (std::size_t k = 0; k < std::min(list.size(), prefetchAhead_); ++k) {
+    __builtin_prefetch(&state_[list[k]]);
+    __builtin_prefetch(&event_[list[k]]);
+  }
   const double ri = radiusAt(si);
   const double rate = growth_ * si.r0;
   Event best{kInfinity, -1, EventKind::None};

@@ -421,12 +421,10 @@ class HardSphereSystem {
     __builtin_prefetch(first);
     __builtin_prefetch(first + 16);
   }
-  /// The states and events of i's first prefetchAhead_ neighbours (what predict(i) reads first).
-  void prefetchNeighbourStates(Index i) const;
   /// How many neighbours ahead predict() requests states and events: 16 (most lists of equal spheres at once)
-  /// once the states outgrow 1 MiB (N > 16,384), else 4. Interleaved runs (docs/benchmarks/edmd/README.md,
-  /// session 33): at N = 32,000 and 10^5, 16 gave 1.05-1.16x collisions per second; at 10^4, where the
-  /// states stay in cache, it cost 3%.
+  /// once the states outgrow 1 MiB (N > 16,384), else 4. Interleaved runs (docs/benchmarks/edmd/peer/README.md,
+  /// session 33), 16 against 4: 1.05x at N = 32,000, 1.12x at 10^5; at 10^4, where the states stay in cache,
+  /// 0.97x.
   std::size_t prefetchAhead_ = 4;
   std::span<const Index> neighboursOf(Index i) const {
     const Hood& h = hood_[static_cast<std::size_t>(i)];

@@ -150,12 +150,8 @@ struct JamRun {
   std::string origin;
   std::unique_ptr<edmd::HardSphereSystem> system;
   edmd::CompressionState cstate;
-  std::int64_t eosOffset = -1;  // size of the EOS table at the checkpoint resumed from
-  // Sessions of a resumed run: the wall-clock seconds of the compression in the earlier sessions (unknown
-  // in checkpoints written before session 33, which did not record them), and the events so far.
-  double priorWallSeconds = 0.0;
-  bool priorWallKnown = true;
-  std::int64_t priorSessions = 0;
+  std::int64_t eosOffset = -1;     // size of the EOS table at the checkpoint resumed from
+  SessionRecord prior;             // the earlier sessions of a resumed run (none for a fresh one)
   edmd::EventCounts sessionStart;  // the system's counts when this session's compression began
   Stopwatch session;               // this session's compression (restarted by compressPacking)
   std::ofstream eosCsv;
@@ -240,9 +236,7 @@ void resumeStart(JamRun& run) {
   run.system = restoreSystem(run.saved, file, run.opt, run.start);
   run.cstate = getCompressionState(run.saved);
   run.eosOffset = run.saved.integerScalar("eos_offset");
-  run.priorWallKnown = run.saved.has("wall_seconds_before");
-  run.priorWallSeconds = run.priorWallKnown ? run.saved.scalar("wall_seconds_before") : 0.0;
-  run.priorSessions = run.saved.has("sessions_before") ? run.saved.integerScalar("sessions_before") : 1;
+  run.prior = getSessionRecord(run.saved);
 }
 
 /// Start from --input, shrunk to about --reopen's pressure if given.
@@ -334,8 +328,7 @@ void writeJamCheckpoint(JamRun& run, edmd::HardSphereSystem& system, const edmd:
   io::Checkpoint c =
       jamCheckpoint(run.opt, run.resuming ? run.saved.string("origin") : run.origin, run.start, system, cs, offset);
   // What the sessions up to this checkpoint spent: a later resume reports the whole run's time.
-  if (run.priorWallKnown) c.putScalar("wall_seconds_before", run.priorWallSeconds + run.session.seconds());
-  c.putInteger("sessions_before", run.priorSessions + 1);
+  putSessionRecord(c, {run.prior.wallKnown, run.prior.wallSeconds + run.session.seconds(), run.prior.sessions + 1});
   io::writeCheckpoint(run.opt.checkpoint, c);
 }
 
@@ -386,17 +379,17 @@ CompressOutcome compressPacking(JamRun& run) {
   const auto onBlock = [&](const edmd::Progress& p) {
     if (run.eosCsv.is_open()) {
       run.eosCsv << fmt::format("{:.17g},{:.8g},{:.3g},{:.2f},{:.8g},{:.2f}\n", p.packingFraction, p.pressure, p.rate,
-                                p.collisionsPerParticle, p.time, run.priorWallSeconds + p.wallSeconds);
+                                p.collisionsPerParticle, p.time, run.prior.wallSeconds + p.wallSeconds);
       run.flushEos(run.eosCsv);
     }
     if (p.wallSeconds - lastPrint >= opt.progressSeconds) {
-      printProgress(p, run.priorWallSeconds);
+      printProgress(p, run.prior.wallSeconds);
       lastPrint = p.wallSeconds;
       lastShown = p;
     }
   };
   out.result = edmd::compress(*run.system, run.copt, onBlock, atBoundary, &run.cstate);
-  if (lastShown.blocks != out.result.last.blocks) printProgress(out.result.last, run.priorWallSeconds);
+  if (lastShown.blocks != out.result.last.blocks) printProgress(out.result.last, run.prior.wallSeconds);
   out.seconds = run.session.seconds();
   out.session = run.system->counts() - run.sessionStart;
   return out;
@@ -450,8 +443,8 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
              static_cast<double>(c.collisions) / n, c.events(), c.exits, c.rebuilds);
   // The rate is this session's events over this session's time; a resumed run's totals cover every session.
   const edmd::EventCounts& now = outcome.session;
-  const std::int64_t sessions = run.priorSessions + 1;
-  const double allSeconds = run.priorWallSeconds + seconds;
+  const std::int64_t sessions = run.prior.sessions + 1;
+  const double allSeconds = run.prior.wallSeconds + seconds;
   if (sessions == 1) {
     fmt::print("wall time               {:.2f} s ({:.3g} collisions/s, {:.3g} events/s)\n", seconds,
                now.collisions / std::max(seconds, 1e-9), now.events() / std::max(seconds, 1e-9));
@@ -459,10 +452,10 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
     fmt::print(
         "wall time               {:.2f} s in this session ({} collisions: {:.3g} collisions/s, {:.3g} events/s); {}\n",
         seconds, now.collisions, now.collisions / std::max(seconds, 1e-9), now.events() / std::max(seconds, 1e-9),
-        run.priorWallKnown ? fmt::format("{:.2f} s over all {} sessions", allSeconds, sessions)
-                           : fmt::format("session {}; the checkpoint resumed from does not record the earlier "
-                                         "sessions' time (written by an older polydem)",
-                                         sessions));
+        run.prior.wallKnown ? fmt::format("{:.2f} s over all {} sessions", allSeconds, sessions)
+                            : fmt::format("session {}; the checkpoint resumed from does not record the earlier "
+                                          "sessions' time (written by an older polydem)",
+                                          sessions));
   }
   fmt::print("contacts (gap <= {:.1e}) {}  z = {:.4f}\n", s.contactOptions.relativeGap, net.contacts.size(),
              net.meanCoordination());
@@ -497,7 +490,7 @@ void printReport(const JamRun& run, const CompressOutcome& outcome, const JamSum
   sum.put("report.wall_seconds", seconds);
   sum.put("report.sessions", sessions);
   sum.put("report.session_collisions", static_cast<std::int64_t>(now.collisions));
-  if (run.priorWallKnown) {
+  if (run.prior.wallKnown) {
     sum.put("report.wall_seconds_all_sessions", allSeconds);
   } else {
     sum.undefined("report.wall_seconds_all_sessions", "the checkpoint resumed from does not record earlier sessions");

@@ -58,6 +58,16 @@ io::ParticleData getStartRecord(const io::Checkpoint& c);
 void putCompressionState(io::Checkpoint& c, const edmd::CompressionState& cs);
 edmd::CompressionState getCompressionState(const io::Checkpoint& c);
 
+/// The sessions of a run up to a checkpoint: the compression's wall-clock seconds in them and how many there were.
+struct SessionRecord {
+  bool wallKnown = true;  // false: the checkpoint predates the record (written before session 33)
+  double wallSeconds = 0.0;
+  std::int64_t sessions = 0;
+};
+void putSessionRecord(io::Checkpoint& c, const SessionRecord& record);
+/// Checked: wall seconds finite and >= 0, sessions >= 1 (InputError naming the file and entry).
+SessionRecord getSessionRecord(const io::Checkpoint& c);
+
 // The parts of a run (jam_parts.cpp), shared by `polydem jam` and the Python module's jam(): the same
 // start, checkpoints, contact analysis and output file from both. They print nothing.
 

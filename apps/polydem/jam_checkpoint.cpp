@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <array>
+#include <cmath>
 
 #include "apps/polydem/jam.hpp"
 #include "core/errors.hpp"
@@ -165,6 +166,30 @@ void putCompressionState(io::Checkpoint& c, const edmd::CompressionState& cs) {
   c.integer["initial_counts"] = countsVector(cs.initial);
   c.real["plateau"] = {cs.pressureLimit, cs.windowMax, cs.previousWindowMax};
   c.integer["plateau_blocks"] = {cs.windowBlocks, cs.windowStart};
+}
+
+void putSessionRecord(io::Checkpoint& c, const SessionRecord& record) {
+  if (record.wallKnown) c.putScalar("wall_seconds_before", record.wallSeconds);
+  c.putInteger("sessions_before", record.sessions);
+}
+
+SessionRecord getSessionRecord(const io::Checkpoint& c) {
+  SessionRecord record;
+  record.wallKnown = c.has("wall_seconds_before");
+  if (record.wallKnown) {
+    record.wallSeconds = c.scalar("wall_seconds_before");
+    if (!std::isfinite(record.wallSeconds) || record.wallSeconds < 0.0) {
+      throw InputError(fmt::format("{}: checkpoint entry wall_seconds_before is {}: must be finite and >= 0",
+                                   c.source.string(), record.wallSeconds));
+    }
+  }
+  // Checkpoints before the record: at least the session that wrote them.
+  record.sessions = c.has("sessions_before") ? c.integerScalar("sessions_before") : 1;
+  if (record.sessions < 1) {
+    throw InputError(
+        fmt::format("{}: checkpoint entry sessions_before is {}: must be >= 1", c.source.string(), record.sessions));
+  }
+  return record;
 }
 
 edmd::CompressionState getCompressionState(const io::Checkpoint& c) {

@@ -106,12 +106,12 @@ add_test(NAME cli_jam_reopen_attribute
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_reopen_attribute.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_jam_reopen_attribute PROPERTIES TIMEOUT 120 LABELS "cli;jam")
 
-# --- resume of a wide distribution: the size-class skin floors are in the checkpoint (issue 24) ---------
 # --- a resumed run's report: this session's time and rate, and the time over all sessions (session 33) ----
 add_test(NAME cli_jam_resume_sessions
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_resume_sessions.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_jam_resume_sessions PROPERTIES TIMEOUT 120 LABELS "cli;jam")
 
+# --- resume of a wide distribution: the size-class skin floors are in the checkpoint (issue 24) ---------
 add_test(NAME cli_jam_resume_wide
          COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/jam_resume_wide.sh $<TARGET_FILE:polydem> ${POLYDEM_CLI_WORK})
 set_tests_properties(cli_jam_resume_wide PROPERTIES TIMEOUT 120 LABELS "cli;jam")
